@@ -1,0 +1,41 @@
+"""sampledyn: sampled-data models of vehicle dynamics.
+
+One-step-ahead predictors (Euler, Tustin, Runge-Kutta, Adams-Bashforth) built from
+continuous-time vehicle models, run against exact sampled data, with local errors.
+"""
+
+from . import methods as methods
+from . import models as models
+from . import signals as signals
+from ._trajectory import Certificate as Certificate
+from ._trajectory import Trajectory as Trajectory
+from .errors import error_norm as error_norm
+from .errors import local_errors as local_errors
+from .methods import AdamsBashforth as AdamsBashforth
+from .methods import Euler as Euler
+from .methods import RungeKutta as RungeKutta
+from .methods import Tustin as Tustin
+from .methods import available_methods as available_methods
+from .methods import get_method as get_method
+from .predict import predict as predict
+from .simulate import simulate as simulate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "AdamsBashforth",
+    "Certificate",
+    "Euler",
+    "RungeKutta",
+    "Trajectory",
+    "Tustin",
+    "available_methods",
+    "error_norm",
+    "get_method",
+    "local_errors",
+    "methods",
+    "models",
+    "predict",
+    "signals",
+    "simulate",
+]

@@ -1,0 +1,130 @@
+"""Random multilevel input and zero-order hold of sampled data."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._base import Signal
+
+__all__ = ["Multilevel", "ZeroOrderHold"]
+
+# Relative slack when locating a time on a grid, so that t = n*h computed in floating
+# point lands in interval n and not n - 1.
+_GRID_SLACK = 1e-9
+
+
+class Multilevel(Signal):
+    """Random multilevel signal: levels uniform in ``[low, high]``, each held for
+    ``hold`` seconds, starting at t = 0 (section 4.1 of the paper).
+
+    Parameters
+    ----------
+    low, high : float
+        Level range (input units). Paper: -10, 10.
+    hold : float
+        Duration of each level h_u (s); must be an integer multiple of the sampling
+        period h used with it (checked by :func:`sampledyn.simulate`).
+    seed : int
+        Seed of the level sequence; the same seed gives the same levels.
+    nu : int
+        Number of independent channels.
+
+    Examples
+    --------
+    >>> sig = Multilevel(low=-10.0, high=10.0, hold=0.05, seed=0)
+    >>> sig(np.array([0.0, 0.01, 0.05])).shape
+    (3, 1)
+    """
+
+    def __init__(
+        self, low: float = -10.0, high: float = 10.0, hold: float = 0.1, seed: int = 0, nu: int = 1
+    ) -> None:
+        if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
+            raise ValueError(f"need finite `low` < `high`, got low={low}, high={high}.")
+        if not (math.isfinite(hold) and hold > 0):
+            raise ValueError(f"`hold` (h_u, s) must be positive and finite, got {hold}.")
+        if not isinstance(seed, int | np.integer):
+            raise TypeError(f"`seed` must be an int, got {type(seed).__name__}.")
+        if not isinstance(nu, int) or nu < 1:
+            raise ValueError(f"`nu` must be a positive int, got {nu!r}.")
+        self.low = float(low)
+        self.high = float(high)
+        self.hold = float(hold)
+        self.seed = int(seed)
+        self.nu = nu
+        self.names = tuple(f"u{i + 1}" for i in range(nu))
+        self.units = ("",) * nu
+        self._levels = np.empty((0, nu))
+
+    def __repr__(self) -> str:
+        return (
+            f"Multilevel(low={self.low}, high={self.high}, hold={self.hold}, "
+            f"seed={self.seed}, nu={self.nu})"
+        )
+
+    def levels(self, count: int) -> np.ndarray:
+        """The first ``count`` levels, shape (count, nu); a prefix never changes."""
+        if count > self._levels.shape[0]:
+            # random() draws are sequential, so a longer draw extends a shorter one.
+            rng = np.random.default_rng(self.seed)
+            size = max(count, 2 * self._levels.shape[0])
+            raw = rng.random((size, self.nu))
+            self._levels = self.low + (self.high - self.low) * raw
+        return self._levels[:count]
+
+    def hold_values(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        if t.size and t.min() < 0:
+            raise ValueError(f"Multilevel is defined for t >= 0, got t = {t.min()}.")
+        k = np.floor(t / self.hold + _GRID_SLACK).astype(np.int64)
+        top = int(k.max()) + 1 if k.size else 0
+        return self.levels(top)[k]
+
+    def check_sampling(self, h: float) -> None:
+        ratio = self.hold / h
+        if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
+            raise ValueError(
+                f"`hold` h_u = {self.hold} s must be an integer multiple of the sampling "
+                f"period h = {h} s (h_u/h = {ratio:.6g}). Choose h_u = k*h."
+            )
+
+
+class ZeroOrderHold(Signal):
+    """Zero-order hold of sampled inputs: u(t) = u_n on ``[t_n, t_{n+1})``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Strictly increasing sample times (s).
+    u : ndarray, shape (N, nu) or (N,)
+        Input samples.
+    """
+
+    def __init__(self, t: np.ndarray, u: np.ndarray) -> None:
+        t = np.asarray(t, dtype=float)
+        u = np.asarray(u, dtype=float)
+        if u.ndim == 1:
+            u = u[:, None]
+        if t.ndim != 1 or u.ndim != 2 or u.shape[0] != t.shape[0]:
+            raise ValueError(
+                f"`t` must have shape (N,) and `u` shape (N, nu); got {t.shape} and {u.shape}."
+            )
+        if t.size < 1 or np.any(np.diff(t) <= 0):
+            raise ValueError("`t` must be non-empty and strictly increasing.")
+        if not np.isfinite(u).all():
+            raise ValueError(f"`u` holds NaN or inf at sample {int(np.argmax(~np.isfinite(u).all(1)))}.")
+        self.t = t
+        self.u = u
+        self.nu = u.shape[1]
+        self.names = tuple(f"u{i + 1}" for i in range(self.nu))
+        self.units = ("",) * self.nu
+
+    def hold_values(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        span = self.t[-1] - self.t[0] if self.t.size > 1 else 1.0
+        idx = np.searchsorted(self.t, t + _GRID_SLACK * span, side="right") - 1
+        if np.any(idx < 0):
+            raise ValueError(f"ZeroOrderHold starts at t = {self.t[0]}; asked for {t.min()}.")
+        return self.u[idx]
