@@ -37,6 +37,7 @@ def error_norm(
     kind: str = "rms",
     after: float | None = None,
     components: Any = None,
+    where: np.ndarray | None = None,
 ) -> float:
     """A norm of local errors over the samples with t >= ``after`` (s).
 
@@ -48,6 +49,8 @@ def error_norm(
         ||e_n||^2) / N; "l2": sqrt(sum ||e_n||^2); "mean": mean ||e_n||.
     components : slice, sequence of int, or None
         State components to include (e.g. ``slice(0, 6)`` for eta).
+    where : ndarray of bool, shape (N,), optional
+        Only samples where this is True count (e.g. away from input jumps).
     """
     e = np.asarray(errors, dtype=float)
     t = np.asarray(t, dtype=float)
@@ -60,6 +63,11 @@ def error_norm(
     if kind not in ERROR_NORMS:
         raise ValueError(f"unknown norm kind {kind!r}; valid: {', '.join(ERROR_NORMS)}.")
     keep = ~np.isnan(e).any(axis=1)
+    if where is not None:
+        where = np.asarray(where, dtype=bool)
+        if where.shape != keep.shape:
+            raise ValueError(f"`where` must have shape {keep.shape}, got {where.shape}.")
+        keep &= where
     if after is not None:
         keep &= t >= after - 1e-9 * max(1.0, abs(after))
     per = np.sqrt((e[keep] ** 2).sum(axis=1))

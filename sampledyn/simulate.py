@@ -69,28 +69,67 @@ def _dop_stages(rhs, p, t, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytm
 
 
 @njit(cache=True)
+def _crossing_root(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u,
+                   ytry, is_input, idx, ga, gb):  # pragma: no cover - compiled
+    """Time tau in (0, dt) where state/input ``idx`` crosses zero (Illinois method)."""
+    a, fa, b, fb = 0.0, ga, dt, gb
+    c = dt
+    side = 0
+    for _ in range(60):
+        c = (fa * b - fb * a) / (fa - fb)
+        if is_input:
+            _input_at(hold_row, offset, amp, freq, phase, tc + c, u)
+            fc = u[idx]
+        else:
+            _dop_stages(rhs, p, tc, y, c, k0, hold_row, offset, amp, freq, phase, K, ytmp, u,
+                        ytry)
+            fc = ytry[idx]
+        if fc * fb > 0.0:
+            b, fb = c, fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        elif fa * fc > 0.0:
+            a, fa = c, fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        else:
+            break
+        if b - a <= 1e-13 * dt:
+            break
+    return c
+
+
+@njit(cache=True)
 def _integrate(
     rhs, p, t, x0, hold, offset, amp, freq, phase, rtol, atol, certify, n_start, n_stop,
-    dt_init, X, steps, diff,
+    dt_init, kink_states, kink_inputs, X, steps, diff,
 ):  # pragma: no cover - compiled
     """Integrate intervals n_start..n_stop-1; X[n_start] must hold the start state.
+
+    Steps end exactly where a state in ``kink_states`` or an input in ``kink_inputs``
+    crosses zero, so no step straddles a point where f is not smooth (|v| v, n |n|).
 
     Returns (status, suggested next dt). status 0 ok, 1 step underflow, 2 non-finite.
     """
     nx = x0.shape[0]
+    nu = hold.shape[1]
     K = np.empty((_NS + 1, nx))
     Kf = np.empty((_NS + 1, nx))
+    Kr = np.empty((_NS + 1, nx))
     ytmp = np.empty(nx)
-    u = np.empty(hold.shape[1])
+    u = np.empty(nu)
+    ua = np.empty(nu)
+    ub = np.empty(nu)
     y = np.empty(nx)
     ynew = np.empty(nx)
+    ytry = np.empty(nx)
     yf = np.empty(nx)
     yfm = np.empty(nx)
     yfn = np.empty(nx)
     k0 = np.empty(nx)
     kf0 = np.empty(nx)
-    err5 = np.empty(nx)
-    err3 = np.empty(nx)
     dt = dt_init
     for n in range(n_start, n_stop):
         ta = t[n]
@@ -107,7 +146,8 @@ def _integrate(
         while tc < tb:
             if dt > tb - tc or tb - (tc + dt) < 1e-9 * (tb - ta):
                 dt = tb - tc
-            _dop_stages(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew)
+            _dop_stages(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u,
+                        ynew)
             tn = tc + dt
             if tb - tn < 1e-9 * (tb - ta):
                 tn = tb
@@ -133,31 +173,57 @@ def _integrate(
                 err = 0.0
             else:
                 err = dt * e5 / math.sqrt((e5 + 0.01 * e3) * nx)
-            if err <= 1.0:
-                if certify:
-                    # The same step as two half steps from the fine state.
-                    half = 0.5 * dt
-                    _input_at(hold_row, offset, amp, freq, phase, tc, u)
-                    rhs(tc, yf, u, p, kf0)
-                    _dop_stages(rhs, p, tc, yf, half, kf0, hold_row, offset, amp, freq, phase,
-                                Kf, ytmp, u, yfm)
-                    _input_at(hold_row, offset, amp, freq, phase, tc + half, u)
-                    rhs(tc + half, yfm, u, p, kf0)
-                    _dop_stages(rhs, p, tc + half, yfm, half, kf0, hold_row, offset, amp, freq,
-                                phase, Kf, ytmp, u, yfn)
-                    for j in range(nx):
-                        yf[j] = yfn[j]
-                tc = tn
-                for j in range(nx):
-                    y[j] = ynew[j]
-                    k0[j] = K[_NS, j]
-                count += 1
-                factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-                dt = dt * factor
-            else:
+            if err > 1.0:
                 dt = dt * max(0.2, 0.9 * err ** (-1.0 / 8.0))
                 if dt < min_dt:
                     return 1, dt
+                continue
+            # Accepted. Does a kink variable change sign inside the step?
+            step = tn - tc
+            tau = step
+            if kink_inputs.shape[0] > 0:
+                _input_at(hold_row, offset, amp, freq, phase, tc, ua)
+                _input_at(hold_row, offset, amp, freq, phase, tn, ub)
+            for q in range(kink_states.shape[0]):
+                k = kink_states[q]
+                if y[k] * ynew[k] < 0.0 and abs(y[k]) > 1e-13 * abs(ynew[k]):
+                    r = _crossing_root(rhs, p, tc, y, step, k0, hold_row, offset, amp, freq,
+                                       phase, Kr, ytmp, u, ytry, False, k, y[k], ynew[k])
+                    tau = min(tau, r)
+            for q in range(kink_inputs.shape[0]):
+                k = kink_inputs[q]
+                if ua[k] * ub[k] < 0.0 and abs(ua[k]) > 1e-13 * abs(ub[k]):
+                    r = _crossing_root(rhs, p, tc, y, step, k0, hold_row, offset, amp, freq,
+                                       phase, Kr, ytmp, u, ytry, True, k, ua[k], ub[k])
+                    tau = min(tau, r)
+            if 1e-6 * step < tau < step * (1.0 - 1e-9):
+                # Shorten the step to end on the kink: both sides are then smooth.
+                step = tau
+                tn = tc + step
+                _dop_stages(rhs, p, tc, y, step, k0, hold_row, offset, amp, freq, phase, K,
+                            ytmp, u, ynew)
+                _input_at(hold_row, offset, amp, freq, phase, tn, u)
+                rhs(tn, ynew, u, p, K[_NS])
+            if certify:
+                # The same step as two half steps from the fine state.
+                half = 0.5 * step
+                _input_at(hold_row, offset, amp, freq, phase, tc, u)
+                rhs(tc, yf, u, p, kf0)
+                _dop_stages(rhs, p, tc, yf, half, kf0, hold_row, offset, amp, freq, phase,
+                            Kf, ytmp, u, yfm)
+                _input_at(hold_row, offset, amp, freq, phase, tc + half, u)
+                rhs(tc + half, yfm, u, p, kf0)
+                _dop_stages(rhs, p, tc + half, yfm, half, kf0, hold_row, offset, amp, freq,
+                            phase, Kf, ytmp, u, yfn)
+                for j in range(nx):
+                    yf[j] = yfn[j]
+            tc = tn
+            for j in range(nx):
+                y[j] = ynew[j]
+                k0[j] = K[_NS, j]
+            count += 1
+            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+            dt = dt * factor
         for j in range(nx):
             X[n + 1, j] = y[j]
             diff[n, j] = y[j] - yf[j]
@@ -242,6 +308,8 @@ def simulate(
     t = float(h) * np.arange(n_int + 1)
     spec = signal.spec(t)
     rhs, p = model.kernel()
+    kink_states = np.asarray(getattr(model, "kink_states", ()), dtype=np.int64)
+    kink_inputs = np.asarray(getattr(model, "kink_inputs", ()), dtype=np.int64)
     X = np.empty((n_int + 1, model.nx))
     X[0] = x0
     steps = np.zeros(n_int, dtype=np.int64)
@@ -257,7 +325,8 @@ def simulate(
         for a, b in zip(chunks[:-1], chunks[1:], strict=True):
             status, dt = _integrate(
                 rhs, p, t, x0, spec.hold, spec.offset, spec.amp, spec.freq_hz, spec.phase_rad,
-                float(rtol), float(atol), bool(certify), int(a), int(b), dt, X, steps, diff,
+                float(rtol), float(atol), bool(certify), int(a), int(b), dt, kink_states,
+                kink_inputs, X, steps, diff,
             )
             if status != 0:
                 bad = int(np.argmax(steps[a:b] == 0)) + int(a)

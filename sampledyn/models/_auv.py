@@ -71,6 +71,9 @@ class AUVLike(CompiledModel):
     state_units = ("m", "m/s")
     input_names = ("u1",)
     input_units = ("m/s^2",)
+    # y|y| is not smooth at y = 0: the simulator ends its steps there.
+    kink_states = (1,)
+    kink_inputs = ()
     param_units = {"alpha": "1/m", "beta": "1/s", "gamma": "1/m", "delta": "m/s^2"}
 
     def __post_init__(self) -> None:

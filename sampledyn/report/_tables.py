@@ -1,0 +1,42 @@
+"""Plain-text tables and CSV files from lists of row dicts."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["format_grid", "write_csv"]
+
+
+def write_csv(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
+    """Write rows (dicts with the same keys) to a CSV file; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not rows:
+        raise ValueError("no rows to write.")
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def format_grid(
+    rows: Sequence[dict[str, Any]], row_key: str, col_key: str, value_key: str,
+    fmt: str = "{:.2e}", row_title: str | None = None, col_title: str | None = None,
+) -> str:
+    """A text table with one row per ``row_key`` value and one column per ``col_key``."""
+    row_vals = list(dict.fromkeys(r[row_key] for r in rows))
+    col_vals = list(dict.fromkeys(r[col_key] for r in rows))
+    cell = {(r[row_key], r[col_key]): r[value_key] for r in rows}
+    head = [row_title or row_key] + [f"{col_title or col_key}={c}" for c in col_vals]
+    body = [
+        [str(rv)] + [fmt.format(cell[(rv, cv)]) if (rv, cv) in cell else "-" for cv in col_vals]
+        for rv in row_vals
+    ]
+    widths = [max(len(line[i]) for line in [head, *body]) for i in range(len(head))]
+    lines = ["  ".join(s.rjust(w) for s, w in zip(line, widths, strict=True)) for line in [head, *body]]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
