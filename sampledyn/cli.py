@@ -24,7 +24,9 @@ def _ints(text: str) -> tuple[int, ...]:
     try:
         return tuple(int(v) for v in text.split(",") if v.strip())
     except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from exc
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated integers, got {text!r}"
+        ) from exc
 
 
 def _auv_figure(which: str, args: argparse.Namespace) -> int:
@@ -35,7 +37,11 @@ def _auv_figure(which: str, args: argparse.Namespace) -> int:
     if args.methods:
         methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
     study = AUVStudy(
-        methods=methods, hold_ratios=args.ratios, h=args.h, T=args.T, after=args.after,
+        methods=methods,
+        hold_ratios=args.ratios,
+        h=args.h,
+        T=args.T,
+        after=args.after,
         seed=args.seed,
     )
     rows = run_auv_study(study, progress=not args.no_progress)
@@ -47,12 +53,17 @@ def _auv_figure(which: str, args: argparse.Namespace) -> int:
     )
     png = plot_error_vs_order(rows, out / f"{which}.png", norm=args.norm, title=title)
     png_smooth = plot_error_vs_order(
-        rows, out / f"{which}_away_from_jumps.png", norm="rms_away_from_jumps",
+        rows,
+        out / f"{which}_away_from_jumps.png",
+        norm="rms_away_from_jumps",
         title=title + "\nrms over samples whose history holds no input jump",
     )
     tau = min(r["tau_min"] for r in rows)
     cert = max(r["certificate"] for r in rows)
-    print(f"{which}: {args.norm} norm of the one-step local errors (both states), t >= {study.after:g} s")
+    print(
+        f"{which}: {args.norm} norm of the one-step local errors (both states), "
+        f"t >= {study.after:g} s"
+    )
     print(
         f"sampling period h = {study.h:g} s; fastest local time constant along the runs "
         f"{tau:.3g} s (h / tau = {study.h / tau:.2g}); exact samples certified to "
@@ -111,13 +122,23 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", help="output folder (default: out/FIGURE)")
     rep.add_argument("--h", type=float, default=0.01, help="sampling period h in s (default 0.01)")
     rep.add_argument("--T", type=float, default=200.0, help="duration in s (default 200)")
-    rep.add_argument("--after", type=float, default=20.0, help="errors from this time on, s (default 20)")
+    rep.add_argument(
+        "--after", type=float, default=20.0, help="errors from this time on, s (default 20)"
+    )
     rep.add_argument("--seed", type=int, default=0, help="input seed (default 0)")
-    rep.add_argument("--ratios", type=_ints, default=(1, 2, 5, 10, 20, 50, 100),
-                     help="h_u/h values, comma-separated (default 1,2,5,10,20,50,100)")
+    rep.add_argument(
+        "--ratios",
+        type=_ints,
+        default=(1, 2, 5, 10, 20, 50, 100),
+        help="h_u/h values, comma-separated (default 1,2,5,10,20,50,100)",
+    )
     rep.add_argument("--methods", help="comma-separated method names (default: the figure's)")
-    rep.add_argument("--norm", default="rms", choices=["rms", "max", "l2_over_n"],
-                     help="norm shown in the table and figure (all go to the CSV)")
+    rep.add_argument(
+        "--norm",
+        default="rms",
+        choices=["rms", "max", "l2_over_n"],
+        help="norm shown in the table and figure (all go to the CSV)",
+    )
     rep.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     rep.set_defaults(func=_cmd_reproduce)
 

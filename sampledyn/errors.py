@@ -57,7 +57,9 @@ def error_norm(
     if e.ndim == 1:
         e = e[:, None]
     if e.ndim != 2 or e.shape[0] != t.shape[0]:
-        raise ValueError(f"`errors` must have shape (len(t), nx), got {e.shape} with len(t)={t.shape[0]}.")
+        raise ValueError(
+            f"`errors` must have shape (len(t), nx), got {e.shape} with len(t)={t.shape[0]}."
+        )
     if components is not None:
         e = e[:, components]
     if kind not in ERROR_NORMS:
@@ -73,7 +75,8 @@ def error_norm(
     per = np.sqrt((e[keep] ** 2).sum(axis=1))
     if per.size == 0:
         raise ValueError(
-            f"no samples with a prediction at t >= after={after}; shorten `after` or lengthen the run."
+            f"no samples with a prediction at t >= after={after}; "
+            "shorten `after` or lengthen the run."
         )
     if kind == "rms":
         return float(np.sqrt(np.mean(per**2)))

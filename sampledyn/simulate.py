@@ -69,8 +69,27 @@ def _dop_stages(rhs, p, t, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytm
 
 
 @njit(cache=True)
-def _crossing_root(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u,
-                   ytry, is_input, idx, ga, gb):  # pragma: no cover - compiled
+def _crossing_root(
+    rhs,
+    p,
+    tc,
+    y,
+    dt,
+    k0,
+    hold_row,
+    offset,
+    amp,
+    freq,
+    phase,
+    K,
+    ytmp,
+    u,
+    ytry,
+    is_input,
+    idx,
+    ga,
+    gb,
+):  # pragma: no cover - compiled
     """Time tau in (0, dt) where state/input ``idx`` crosses zero (Illinois method)."""
     a, fa, b, fb = 0.0, ga, dt, gb
     c = dt
@@ -81,8 +100,7 @@ def _crossing_root(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K,
             _input_at(hold_row, offset, amp, freq, phase, tc + c, u)
             fc = u[idx]
         else:
-            _dop_stages(rhs, p, tc, y, c, k0, hold_row, offset, amp, freq, phase, K, ytmp, u,
-                        ytry)
+            _dop_stages(rhs, p, tc, y, c, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ytry)
             fc = ytry[idx]
         if fc * fb > 0.0:
             b, fb = c, fc
@@ -103,8 +121,26 @@ def _crossing_root(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K,
 
 @njit(cache=True)
 def _integrate(
-    rhs, p, t, x0, hold, offset, amp, freq, phase, rtol, atol, certify, n_start, n_stop,
-    dt_init, kink_states, kink_inputs, X, steps, diff,
+    rhs,
+    p,
+    t,
+    x0,
+    hold,
+    offset,
+    amp,
+    freq,
+    phase,
+    rtol,
+    atol,
+    certify,
+    n_start,
+    n_stop,
+    dt_init,
+    kink_states,
+    kink_inputs,
+    X,
+    steps,
+    diff,
 ):  # pragma: no cover - compiled
     """Integrate intervals n_start..n_stop-1; X[n_start] must hold the start state.
 
@@ -146,8 +182,7 @@ def _integrate(
         while tc < tb:
             if dt > tb - tc or tb - (tc + dt) < 1e-9 * (tb - ta):
                 dt = tb - tc
-            _dop_stages(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u,
-                        ynew)
+            _dop_stages(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew)
             tn = tc + dt
             if tb - tn < 1e-9 * (tb - ta):
                 tn = tb
@@ -187,21 +222,60 @@ def _integrate(
             for q in range(kink_states.shape[0]):
                 k = kink_states[q]
                 if y[k] * ynew[k] < 0.0 and abs(y[k]) > 1e-13 * abs(ynew[k]):
-                    r = _crossing_root(rhs, p, tc, y, step, k0, hold_row, offset, amp, freq,
-                                       phase, Kr, ytmp, u, ytry, False, k, y[k], ynew[k])
+                    r = _crossing_root(
+                        rhs,
+                        p,
+                        tc,
+                        y,
+                        step,
+                        k0,
+                        hold_row,
+                        offset,
+                        amp,
+                        freq,
+                        phase,
+                        Kr,
+                        ytmp,
+                        u,
+                        ytry,
+                        False,
+                        k,
+                        y[k],
+                        ynew[k],
+                    )
                     tau = min(tau, r)
             for q in range(kink_inputs.shape[0]):
                 k = kink_inputs[q]
                 if ua[k] * ub[k] < 0.0 and abs(ua[k]) > 1e-13 * abs(ub[k]):
-                    r = _crossing_root(rhs, p, tc, y, step, k0, hold_row, offset, amp, freq,
-                                       phase, Kr, ytmp, u, ytry, True, k, ua[k], ub[k])
+                    r = _crossing_root(
+                        rhs,
+                        p,
+                        tc,
+                        y,
+                        step,
+                        k0,
+                        hold_row,
+                        offset,
+                        amp,
+                        freq,
+                        phase,
+                        Kr,
+                        ytmp,
+                        u,
+                        ytry,
+                        True,
+                        k,
+                        ua[k],
+                        ub[k],
+                    )
                     tau = min(tau, r)
             if 1e-6 * step < tau < step * (1.0 - 1e-9):
                 # Shorten the step to end on the kink: both sides are then smooth.
                 step = tau
                 tn = tc + step
-                _dop_stages(rhs, p, tc, y, step, k0, hold_row, offset, amp, freq, phase, K,
-                            ytmp, u, ynew)
+                _dop_stages(
+                    rhs, p, tc, y, step, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew
+                )
                 _input_at(hold_row, offset, amp, freq, phase, tn, u)
                 rhs(tn, ynew, u, p, K[_NS])
             if certify:
@@ -209,12 +283,28 @@ def _integrate(
                 half = 0.5 * step
                 _input_at(hold_row, offset, amp, freq, phase, tc, u)
                 rhs(tc, yf, u, p, kf0)
-                _dop_stages(rhs, p, tc, yf, half, kf0, hold_row, offset, amp, freq, phase,
-                            Kf, ytmp, u, yfm)
+                _dop_stages(
+                    rhs, p, tc, yf, half, kf0, hold_row, offset, amp, freq, phase, Kf, ytmp, u, yfm
+                )
                 _input_at(hold_row, offset, amp, freq, phase, tc + half, u)
                 rhs(tc + half, yfm, u, p, kf0)
-                _dop_stages(rhs, p, tc + half, yfm, half, kf0, hold_row, offset, amp, freq,
-                            phase, Kf, ytmp, u, yfn)
+                _dop_stages(
+                    rhs,
+                    p,
+                    tc + half,
+                    yfm,
+                    half,
+                    kf0,
+                    hold_row,
+                    offset,
+                    amp,
+                    freq,
+                    phase,
+                    Kf,
+                    ytmp,
+                    u,
+                    yfn,
+                )
                 for j in range(nx):
                     yf[j] = yfn[j]
             tc = tn
@@ -288,11 +378,13 @@ def simulate(
     n_int = _check_period(h, T)
     if not hasattr(model, "kernel"):
         raise TypeError(
-            f"`model` must provide a compiled kernel (a sampledyn model), got {type(model).__name__}."
+            "`model` must provide a compiled kernel (a sampledyn model), "
+            f"got {type(model).__name__}."
         )
     if getattr(signal, "nu", None) != model.nu:
         raise ValueError(
-            f"`signal` has nu={getattr(signal, 'nu', None)} channels, the model needs nu={model.nu}."
+            f"`signal` has nu={getattr(signal, 'nu', None)} channels, "
+            f"the model needs nu={model.nu}."
         )
     signal.check_sampling(float(h))
     if x0 is None:
@@ -324,9 +416,26 @@ def simulate(
     try:
         for a, b in zip(chunks[:-1], chunks[1:], strict=True):
             status, dt = _integrate(
-                rhs, p, t, x0, spec.hold, spec.offset, spec.amp, spec.freq_hz, spec.phase_rad,
-                float(rtol), float(atol), bool(certify), int(a), int(b), dt, kink_states,
-                kink_inputs, X, steps, diff,
+                rhs,
+                p,
+                t,
+                x0,
+                spec.hold,
+                spec.offset,
+                spec.amp,
+                spec.freq_hz,
+                spec.phase_rad,
+                float(rtol),
+                float(atol),
+                bool(certify),
+                int(a),
+                int(b),
+                dt,
+                kink_states,
+                kink_inputs,
+                X,
+                steps,
+                diff,
             )
             if status != 0:
                 bad = int(np.argmax(steps[a:b] == 0)) + int(a)

@@ -64,6 +64,8 @@ class AUVStudy:
     model: Any = field(default_factory=AUVLike)
 
     def __post_init__(self) -> None:
+        if not (np.isfinite(self.h) and self.h > 0):
+            raise ValueError(f"sampling period `h` must be > 0 s, got {self.h}.")
         for r in self.hold_ratios:
             if not isinstance(r, int | np.integer) or r < 1:
                 raise ValueError(f"`hold_ratios` must be positive integers, got {r!r}.")
@@ -100,9 +102,7 @@ def away_from_jumps(u: np.ndarray, history: int) -> np.ndarray:
     return ok
 
 
-def run_auv_study(
-    study: AUVStudy = AUVStudy(), *, progress: bool = False
-) -> list[dict[str, Any]]:
+def run_auv_study(study: AUVStudy = AUVStudy(), *, progress: bool = False) -> list[dict[str, Any]]:
     """Local-error norms of every method for every h_u/h.
 
     Returns
@@ -110,7 +110,8 @@ def run_auv_study(
     list of dict, one per (hold ratio, method), with keys ``hold_ratio``, ``method``,
     ``order``, the norms of :data:`sampledyn.errors.ERROR_NORMS` (over both states,
     t >= after), ``rms_away_from_jumps`` (rms over the samples whose prediction
-    history holds no input jump; NaN when h_u/h is too short to have any), ``h``, ``T``, ``after``, ``seed``, ``certificate`` (max scaled
+    history holds no input jump; NaN when h_u/h is too short to have any), ``h``,
+    ``T``, ``after``, ``seed``, ``certificate`` (max scaled
     per-interval flow error of the samples) and ``tau_min`` (fastest local time
     constant, s).
     """
@@ -147,8 +148,12 @@ def run_auv_study(
                     else float("nan")
                 )
                 row.update(
-                    h=study.h, T=study.T, after=study.after, seed=study.seed,
-                    certificate=cert, tau_min=tau,
+                    h=study.h,
+                    T=study.T,
+                    after=study.after,
+                    seed=study.seed,
+                    certificate=cert,
+                    tau_min=tau,
                 )
                 rows.append(row)
                 if bar is not None:

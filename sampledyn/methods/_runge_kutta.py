@@ -85,7 +85,9 @@ class ButcherTableau:
                 raise ValueError(f"row {i} of `a` sums to {sum(row, F(0))}, c[{i}] = {self.c[i]}.")
         computed = _order_conditions(self.a, self.b, self.c)
         if computed != self.order:
-            raise ValueError(f"tableau declared order {self.order}, order conditions give {computed}.")
+            raise ValueError(
+                f"tableau declared order {self.order}, order conditions give {computed}."
+            )
 
     @property
     def stages(self) -> int:
@@ -107,7 +109,9 @@ TABLEAUX: dict[int, ButcherTableau] = {
     # Heun's second-order method (explicit trapezoid).
     2: _tab([[0, 0], [1, 0]], [F(1, 2), F(1, 2)], [0, 1], 2),
     # Kutta's third-order method.
-    3: _tab([[0, 0, 0], [F(1, 2), 0, 0], [-1, 2, 0]], [F(1, 6), F(2, 3), F(1, 6)], [0, F(1, 2), 1], 3),
+    3: _tab(
+        [[0, 0, 0], [F(1, 2), 0, 0], [-1, 2, 0]], [F(1, 6), F(2, 3), F(1, 6)], [0, F(1, 2), 1], 3
+    ),
     # The classical fourth-order method.
     4: _tab(
         [[0, 0, 0, 0], [F(1, 2), 0, 0, 0], [0, F(1, 2), 0, 0], [0, 0, 1, 0]],

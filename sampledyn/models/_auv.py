@@ -39,7 +39,7 @@ def _auv_jac(t, x, u, p, out):  # pragma: no cover - compiled
     vel = x[1]
     s2x = math.sin(2.0 * pos)  # d sin(x)^2 / dx
     out[0, 0] = -s2x * vel
-    out[0, 1] = -math.sin(pos) ** 2
+    out[0, 1] = -(math.sin(pos) ** 2)
     out[1, 0] = delta * s2x
     out[1, 1] = 2.0 * alpha * vel + beta + 2.0 * gamma * abs(vel)
 

@@ -41,11 +41,17 @@ def plot_error_vs_order(
                 continue
             xs, ys = zip(*pts, strict=True)
             if fam in markers:
-                ax.plot(xs, ys, markers[fam], color=color, mfc="none", ms=8,
-                        label=f"{fam}" if k == 0 else None)
+                ax.plot(
+                    xs,
+                    ys,
+                    markers[fam],
+                    color=color,
+                    mfc="none",
+                    ms=8,
+                    label=f"{fam}" if k == 0 else None,
+                )
             else:
-                label = f"{fam}, $h_u/h$={ratio}" if fam != "ABe" else (
-                    "ABe" if k == 0 else None)
+                label = f"{fam}, $h_u/h$={ratio}" if fam != "ABe" else ("ABe" if k == 0 else None)
                 ax.plot(xs, ys, styles.get(fam, "-"), marker=".", color=color, label=label)
     ax.set_yscale("log")
     ax.set_xlabel("order s")

@@ -24,8 +24,13 @@ def write_csv(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
 
 
 def format_grid(
-    rows: Sequence[dict[str, Any]], row_key: str, col_key: str, value_key: str,
-    fmt: str = "{:.2e}", row_title: str | None = None, col_title: str | None = None,
+    rows: Sequence[dict[str, Any]],
+    row_key: str,
+    col_key: str,
+    value_key: str,
+    fmt: str = "{:.2e}",
+    row_title: str | None = None,
+    col_title: str | None = None,
 ) -> str:
     """A text table with one row per ``row_key`` value and one column per ``col_key``."""
     row_vals = list(dict.fromkeys(r[row_key] for r in rows))
@@ -37,6 +42,8 @@ def format_grid(
         for rv in row_vals
     ]
     widths = [max(len(line[i]) for line in [head, *body]) for i in range(len(head))]
-    lines = ["  ".join(s.rjust(w) for s, w in zip(line, widths, strict=True)) for line in [head, *body]]
+    lines = [
+        "  ".join(s.rjust(w) for s, w in zip(line, widths, strict=True)) for line in [head, *body]
+    ]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)

@@ -114,7 +114,9 @@ class ZeroOrderHold(Signal):
         if t.size < 1 or np.any(np.diff(t) <= 0):
             raise ValueError("`t` must be non-empty and strictly increasing.")
         if not np.isfinite(u).all():
-            raise ValueError(f"`u` holds NaN or inf at sample {int(np.argmax(~np.isfinite(u).all(1)))}.")
+            raise ValueError(
+                f"`u` holds NaN or inf at sample {int(np.argmax(~np.isfinite(u).all(1)))}."
+            )
         self.t = t
         self.u = u
         self.nu = u.shape[1]

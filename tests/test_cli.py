@@ -1,0 +1,48 @@
+import csv
+
+import pytest
+
+from sampledyn.cli import build_parser, main
+
+
+def test_help_lists_every_command(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for action in build_parser()._subparsers._group_actions:  # type: ignore[union-attr]
+        for name in action.choices:
+            assert name in out
+
+
+def test_reproduce_fig3_small(tmp_path, capsys):
+    code = main(
+        [
+            "reproduce",
+            "fig3",
+            "--T",
+            "6",
+            "--after",
+            "1",
+            "--ratios",
+            "1,10",
+            "--out",
+            str(tmp_path),
+            "--no-progress",
+        ]
+    )
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "RK4" in out and "hu/h=10" in out
+    rows = list(csv.DictReader((tmp_path / "fig3.csv").open()))
+    assert {r["method"] for r in rows} == {"E", "T", "RK1", "RK2", "RK3", "RK4"}
+    rk = {r["method"]: float(r["rms"]) for r in rows if r["hold_ratio"] == "10"}
+    assert rk["RK4"] < rk["RK2"] < rk["E"]
+    assert (tmp_path / "fig3.png").stat().st_size > 10_000
+
+
+def test_bad_argument_exits_with_message(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["reproduce", "fig2", "--h", "-1", "--no-progress", "--T", "1", "--after", "0.5"])
+    assert exc.value.code == 2
+    assert "`h`" in capsys.readouterr().err

@@ -1,0 +1,54 @@
+import numpy as np
+import pytest
+
+import sampledyn as sd
+
+
+def test_norms_on_known_errors():
+    t = np.arange(5.0)
+    e = np.array([[np.nan, np.nan], [3.0, 4.0], [0.0, 0.0], [0.0, 5.0], [6.0, 8.0]])
+    # per-sample norms of the rows kept: 5, 0, 5, 10
+    assert sd.error_norm(e, t, "max") == 10.0
+    assert sd.error_norm(e, t, "rms") == pytest.approx(np.sqrt((25 + 0 + 25 + 100) / 4))
+    assert sd.error_norm(e, t, "l2_over_n") == pytest.approx(np.sqrt(150) / 4)
+    assert sd.error_norm(e, t, "rms", after=3.0) == pytest.approx(np.sqrt((25 + 100) / 2))
+    assert sd.error_norm(e, t, "max", components=[0]) == 6.0
+    where = np.array([True, True, True, False, False])
+    assert sd.error_norm(e, t, "max", where=where) == 5.0
+
+
+def test_local_errors_sign_is_measurement_minus_prediction():
+    x = np.array([[1.0], [2.0]])
+    x_hat = np.array([[np.nan], [1.5]])
+    err = sd.local_errors(x_hat, x)
+    assert np.isnan(err[0, 0]) and err[1, 0] == 0.5
+
+
+def test_multilevel_levels_held_and_in_range():
+    sig = sd.signals.Multilevel(low=-10.0, high=10.0, hold=0.05, seed=0)
+    t = 0.01 * np.arange(1000)
+    u = sig(t)[:, 0]
+    assert u.shape == (1000,)
+    assert (u >= -10).all() and (u <= 10).all()
+    # Constant within each hold of 5 samples, and changes at hold boundaries.
+    blocks = u.reshape(-1, 5)
+    assert (blocks == blocks[:, :1]).all()
+    assert (np.diff(blocks[:, 0]) != 0).all()
+    # Uniform levels: mean and spread of a uniform on [-10, 10].
+    assert abs(blocks[:, 0].mean()) < 1.5
+    assert blocks[:, 0].std() == pytest.approx(20 / np.sqrt(12), rel=0.15)
+
+
+def test_multilevel_prefix_is_stable():
+    a = sd.signals.Multilevel(hold=1.0, seed=4)
+    first = a(np.arange(10.0)).copy()
+    a(np.arange(1000.0))  # extends the cached level sequence
+    np.testing.assert_array_equal(a(np.arange(10.0)), first)
+    np.testing.assert_array_equal(sd.signals.Multilevel(hold=1.0, seed=4)(np.arange(10.0)), first)
+
+
+def test_zero_order_hold():
+    zoh = sd.signals.ZeroOrderHold(np.array([0.0, 1.0, 2.0]), np.array([5.0, 6.0, 7.0]))
+    np.testing.assert_array_equal(zoh(np.array([0.0, 0.5, 1.0, 1.999, 2.5]))[:, 0], [5, 5, 6, 6, 7])
+    with pytest.raises(ValueError, match="strictly increasing"):
+        sd.signals.ZeroOrderHold(np.array([0.0, 0.0]), np.array([1.0, 2.0]))

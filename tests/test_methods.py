@@ -1,0 +1,115 @@
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import sampledyn as sd
+from sampledyn.methods import TABLEAUX, ButcherTableau, ab_coefficients, available_methods
+
+F = Fraction
+
+KNOWN = {
+    1: (F(1),),
+    2: (F(3, 2), F(-1, 2)),
+    3: (F(23, 12), F(-16, 12), F(5, 12)),
+    4: (F(55, 24), F(-59, 24), F(37, 24), F(-9, 24)),
+}
+
+
+@pytest.mark.parametrize("s", sorted(KNOWN))
+def test_ab_known_values(s):
+    assert ab_coefficients(s) == KNOWN[s]
+
+
+@pytest.mark.parametrize("s", range(1, 11))
+def test_ab_coefficients_sum_to_one(s):
+    assert sum(ab_coefficients(s)) == 1
+
+
+@pytest.mark.parametrize(
+    "s, a_s", [(1, F(1)), (2, F(2)), (3, F(11, 3)), (4, F(20, 3)), (5, F(551, 45)), (6, F(114, 5))]
+)
+def test_a_s(s, a_s):
+    assert sd.AdamsBashforth(s).a_s == a_s
+
+
+@settings(max_examples=40, deadline=None)
+@given(s=st.integers(1, 8), data=st.data())
+def test_ab_exact_on_polynomials_below_degree_s(s, data):
+    # integral_0^1 p(tau) dtau == sum a_i p(-i) for every polynomial of degree < s.
+    degree = data.draw(st.integers(0, s - 1))
+    coeffs = [F(data.draw(st.integers(-20, 20))) for _ in range(degree + 1)]
+
+    def p(tau):
+        return sum(c * F(tau) ** k for k, c in enumerate(coeffs))
+
+    exact = sum(c / (k + 1) for k, c in enumerate(coeffs))
+    assert sum(a * p(-i) for i, a in enumerate(ab_coefficients(s))) == exact
+
+
+def test_ab_not_exact_on_degree_s():
+    s = 3
+    # tau**3 integrates to 1/4, AB3 gets it wrong: the order is exactly s.
+    rule = sum(a * F(-i) ** s for i, a in enumerate(ab_coefficients(s)))
+    assert rule != F(1, 4)
+
+
+def test_ab_newest_first_public_api():
+    ab4 = sd.AdamsBashforth(4)
+    assert ab4.order == 4
+    assert ab4.coefficients == (F(55, 24), F(-59, 24), F(37, 24), F(-3, 8))
+    assert ab4.a_s == F(20, 3)
+
+
+@pytest.mark.parametrize("s", sorted(TABLEAUX))
+def test_tableaux_are_exact_and_of_declared_order(s):
+    tab = TABLEAUX[s]
+    assert tab.order == s
+    assert sum(tab.b) == 1
+    assert all(isinstance(v, Fraction) for v in tab.b)
+
+
+def test_bad_tableau_rejected():
+    with pytest.raises(ValueError, match="row 1"):
+        ButcherTableau(
+            a=((F(0), F(0)), (F(1, 3), F(0))), b=(F(1, 2), F(1, 2)), c=(F(0), F(1)), order=2
+        )
+    with pytest.raises(ValueError, match="order"):
+        # Heun's coefficients declared as order 3.
+        ButcherTableau(
+            a=((F(0), F(0)), (F(1), F(0))), b=(F(1, 2), F(1, 2)), c=(F(0), F(1)), order=3
+        )
+
+
+def test_registry_names_and_euler_is_ab1():
+    for name in available_methods():
+        m = sd.get_method(name)
+        assert m.name == name
+    assert sd.get_method("E").coefficients == sd.AdamsBashforth(1).coefficients
+    assert isinstance(sd.Euler(), sd.AdamsBashforth)
+    assert sd.get_method("AB9").order == 9
+
+
+def test_registry_unknown_name_lists_valid():
+    with pytest.raises(ValueError, match=r"unknown method 'XY3'.*AB<s>.*RK<s>"):
+        sd.get_method("XY3")
+
+
+@pytest.mark.parametrize("name", ["AB0", "RK0", "RK5"])
+def test_registry_bad_order(name):
+    with pytest.raises(ValueError, match="order `s`"):
+        sd.get_method(name)
+
+
+def test_ab_order_must_be_int():
+    with pytest.raises(TypeError, match="order `s`"):
+        sd.AdamsBashforth(2.5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="order `s` must be >= 1"):
+        sd.AdamsBashforth(0)
+
+
+def test_weights_are_float_copy_of_coefficients():
+    w = sd.AdamsBashforth(5).weights
+    assert np.allclose(w, [float(a) for a in ab_coefficients(5)])
