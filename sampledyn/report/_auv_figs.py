@@ -10,9 +10,13 @@ __all__ = ["plot_error_vs_order"]
 
 
 def plot_error_vs_order(
-    rows: Sequence[dict[str, Any]], path: str | Path, *, norm: str = "rms", title: str = ""
+    rows: Sequence[dict[str, Any]],
+    path: str | Path,
+    *,
+    norms: Sequence[tuple[str, str]] = (("rms", "all samples"),),
+    title: str = "",
 ) -> Path:
-    """Plot ``norm`` (log scale) against the order for each method family.
+    """Plot each norm (log scale) against the order, one panel per ``(key, caption)``.
 
     Methods whose names share a prefix (AB, ABe, RK) are joined as one curve per
     h_u/h; single rules (E, Ee, T) are drawn as markers at their order.
@@ -29,10 +33,24 @@ def plot_error_vs_order(
     for r in rows:
         fam = r["method"].rstrip("0123456789") if r["method"][-1].isdigit() else r["method"]
         families.setdefault(fam, []).append(r)
+    cmap = plt.get_cmap("viridis")
+    fig, axes = plt.subplots(1, len(norms), figsize=(5.2 * len(norms), 4.8), sharey=True,
+                             squeeze=False)
+    for ax, (norm, caption) in zip(axes[0], norms, strict=True):
+        _panel(ax, rows, families, ratios, norm, caption, cmap)
+    axes[0][0].set_ylabel("local error, rms over both states")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _panel(ax: Any, rows: Sequence[dict[str, Any]], families: dict[str, list[dict[str, Any]]],
+           ratios: list[int], norm: str, caption: str, cmap: Any) -> None:
     styles = {"AB": "-", "RK": "-", "ABe": "--"}
     markers = {"E": "o", "T": "s", "Ee": "D"}
-    cmap = plt.get_cmap("viridis")
-    fig, ax = plt.subplots(figsize=(7.0, 4.8))
     for k, ratio in enumerate(ratios):
         color = cmap(k / max(1, len(ratios) - 1))
         for fam, frows in families.items():
@@ -55,13 +73,7 @@ def plot_error_vs_order(
                 ax.plot(xs, ys, styles.get(fam, "-"), marker=".", color=color, label=label)
     ax.set_yscale("log")
     ax.set_xlabel("order s")
-    ax.set_ylabel(f"local error ({norm}, both states)")
+    ax.set_title(caption, fontsize=9)
     ax.set_xticks(sorted({r["order"] for r in rows}))
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    ax.legend(fontsize=6, ncol=2)
