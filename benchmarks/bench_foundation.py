@@ -27,8 +27,13 @@ def scipy_samples(model, signal, t, hold_ratio, rtol, atol):
     for a in range(0, t.size - 1, hold_ratio):
         b = min(a + hold_ratio, t.size - 1)
         sol = solve_ivp(
-            lambda tt, xx, ua=u[a]: model.f(tt, xx, ua), (t[a], t[b]), x[a],
-            method="DOP853", rtol=rtol, atol=atol, t_eval=t[a : b + 1],
+            lambda tt, xx, ua=u[a]: model.f(tt, xx, ua),
+            (t[a], t[b]),
+            x[a],
+            method="DOP853",
+            rtol=rtol,
+            atol=atol,
+            t_eval=t[a : b + 1],
         )
         x[a + 1 : b + 1] = sol.y.T[1:]
     return x
@@ -70,11 +75,15 @@ def main() -> None:
     n = traj.t.size - 1
     print(f"AUV-like, T = {args.T:g} s, h = {args.h:g} s, h_u/h = {args.hold_ratio}: {n} intervals")
     print(f"  sd.simulate (no certificate)   {t_sd * 1e3:9.1f} ms   max |x - ref| = {err_sd:.1e}")
-    print(f"  sd.simulate (with certificate) {t_cert * 1e3:9.1f} ms   certificate "
-          f"{traj_c.certificate.max_error:.1e}")
+    print(
+        f"  sd.simulate (with certificate) {t_cert * 1e3:9.1f} ms   certificate "
+        f"{traj_c.certificate.max_error:.1e}"
+    )
     print(f"  solve_ivp DOP853 rtol 1e-10    {t_sp * 1e3:9.1f} ms   max |x - ref| = {err_sp:.1e}")
-    print(f"  speed ratio solve_ivp / sd.simulate = {t_sp / t_sd:.0f}x "
-          f"(with certificate: {t_sp / t_cert:.0f}x)")
+    print(
+        f"  speed ratio solve_ivp / sd.simulate = {t_sp / t_sd:.0f}x "
+        f"(with certificate: {t_sp / t_cert:.0f}x)"
+    )
 
     print("\nOne-step prediction throughput on the same samples (best of 5):")
     t_e = None

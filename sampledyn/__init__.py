@@ -11,12 +11,17 @@ from ._trajectory import Certificate as Certificate
 from ._trajectory import Trajectory as Trajectory
 from .errors import error_norm as error_norm
 from .errors import local_errors as local_errors
+from .estimate import EstimationResult as EstimationResult
+from .estimate import estimate as estimate
+from .estimate import estimate_and_predict as estimate_and_predict
 from .methods import AdamsBashforth as AdamsBashforth
 from .methods import Euler as Euler
 from .methods import RungeKutta as RungeKutta
 from .methods import Tustin as Tustin
 from .methods import available_methods as available_methods
 from .methods import get_method as get_method
+from .methods._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
+from .noise import add_noise as add_noise
 from .predict import predict as predict
 from .simulate import simulate as simulate
 
@@ -24,13 +29,18 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AdamsBashforth",
+    "add_noise",
     "Certificate",
     "Euler",
+    "EstimatedAdamsBashforth",
+    "EstimationResult",
     "RungeKutta",
     "Trajectory",
     "Tustin",
     "available_methods",
     "error_norm",
+    "estimate",
+    "estimate_and_predict",
     "get_method",
     "local_errors",
     "methods",

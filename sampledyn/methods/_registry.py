@@ -16,9 +16,7 @@ __all__ = ["available_methods", "get_method", "register_family"]
 _FAMILIES: dict[str, tuple[re.Pattern[str], Callable[..., Any], str]] = {}
 
 
-def register_family(
-    key: str, pattern: str, factory: Callable[..., Any], description: str
-) -> None:
+def register_family(key: str, pattern: str, factory: Callable[..., Any], description: str) -> None:
     """Add a family of methods (e.g. ``"AB<s>"``); ``factory(order)`` or ``factory()``."""
     _FAMILIES[key] = (re.compile(pattern), factory, description)
 
@@ -65,3 +63,18 @@ def available_methods(max_ab_order: int = 6) -> tuple[str, ...]:
 def describe_methods() -> dict[str, str]:
     """Family name -> one-line description."""
     return {k: d for k, (_, _, d) in _FAMILIES.items()}
+
+
+# Estimated rules (section 4.2). Imported last: _estimated needs only _adams, and
+# reaches sampledyn.estimate lazily at predict time, so there is no import cycle.
+from ._estimated import EstimatedAdamsBashforth  # noqa: E402
+
+register_family(
+    "Ee", r"Ee", lambda: EstimatedAdamsBashforth(1, name="Ee"), "estimated Euler (= ABe1)"
+)
+register_family(
+    "ABe<s>",
+    r"ABe(\d+)",
+    lambda s: EstimatedAdamsBashforth(s),
+    "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1",
+)

@@ -4,5 +4,22 @@ from ._auv import AUVLike as AUVLike
 from ._base import CompiledModel as CompiledModel
 from ._base import LinearForm as LinearForm
 from ._base import Model as Model
+from ._rigid_body import rotation_jacobian as rotation_jacobian
+from ._rigid_body import rotation_jacobian_inverse as rotation_jacobian_inverse
+from ._rigid_body import thruster_allocation as thruster_allocation
+from ._vehicle import Vehicle as Vehicle
+from ._vehicle_file import builtin_vehicles as builtin_vehicles
+from ._vehicle_file import load_vehicle as load_vehicle
 
-__all__ = ["AUVLike", "CompiledModel", "LinearForm", "Model"]
+__all__ = [
+    "AUVLike",
+    "CompiledModel",
+    "LinearForm",
+    "Model",
+    "Vehicle",
+    "builtin_vehicles",
+    "load_vehicle",
+    "rotation_jacobian",
+    "rotation_jacobian_inverse",
+    "thruster_allocation",
+]

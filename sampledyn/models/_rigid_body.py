@@ -284,9 +284,7 @@ def restoring_force(eta: Any, W: float, B: float, r_G: Any, r_B: Any) -> np.ndar
     """
     eta, single = _eta_batch(eta)
     phi, theta = eta[:, 3], eta[:, 4]
-    k = np.stack(
-        [-np.sin(theta), np.cos(theta) * np.sin(phi), np.cos(theta) * np.cos(phi)], axis=1
-    )
+    k = np.stack([-np.sin(theta), np.cos(theta) * np.sin(phi), np.cos(theta) * np.cos(phi)], axis=1)
     h = W * np.asarray(r_G, dtype=float) - B * np.asarray(r_B, dtype=float)
     g = np.concatenate([(W - B) * k, np.cross(np.broadcast_to(h, k.shape), k)], axis=1)
     return g[0] if single else g

@@ -5,11 +5,12 @@ called by the exact-sample integrator and, over a batch, by ``Vehicle.f``.
 
     eta' = J(eta) (v + v_c,body) + v_c,ned                                 (6)
     v'   = M^-1 (-C(v) v - D(v) v + g(eta) + B T(n, v) + tau_c)            (5)
-    T_i  = K1 n_i |n_i| - K2 v_a,i n_i,   v_a,i = B[:, i] . v              (7)
+    T_i  = K1 n_i |n_i| - K2 v_a,i |n_i|, v_a,i = B[:, i] . v              (7)
     n'   = (n_r - n) / T_n          (thruster lag, eq. (3); optional)
 
 All parameters travel in one float64 array ``p`` with the layout below (``N`` is
-the number of thrusters; ``B`` is stored row-major, ``B[k, i] = p[_ALLOC + k N + i]``).
+the number of thrusters; ``B`` is stored thruster by thruster,
+``B[k, i] = p[_ALLOC + 6 i + k]``).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ _VCB = 31  # current added inside J(eta)(v + v_c) (6, body frame)
 _VCN = 37  # current added to eta' (6, NED / Euler-rate frame)
 _M = 43  # M row-major (36)
 _MINV = 79  # M^-1 row-major (36)
-_ALLOC = 115  # B (6 N) then nothing else
+_ALLOC = 115  # B (6 N), column i at _ALLOC + 6 i
 _HEADER = _ALLOC
 
 
@@ -78,12 +79,12 @@ def pack_params(
     p[_VCN : _VCN + 6] = current_ned
     p[_M : _M + 36] = np.asarray(M, dtype=float).ravel()
     p[_MINV : _MINV + 36] = np.asarray(Minv, dtype=float).ravel()
-    p[_ALLOC : _ALLOC + 6 * n_thrusters] = np.asarray(allocation, dtype=float).ravel()
+    p[_ALLOC : _ALLOC + 6 * n_thrusters] = np.asarray(allocation, dtype=float).T.ravel()
     p.setflags(write=False)
     return p
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     """x' = f(t, x, u; p) for one state; writes ``out`` (shape (nx,))."""
     nt = int(p[_N])
@@ -169,14 +170,14 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     # --- thrusters, eq. (7), tau = B T
     for i in range(nt):
         n = x[12 + i] if lag else u[i]
-        c0 = p[_ALLOC + i]
-        c1 = p[_ALLOC + nt + i]
-        c2 = p[_ALLOC + 2 * nt + i]
-        c3 = p[_ALLOC + 3 * nt + i]
-        c4 = p[_ALLOC + 4 * nt + i]
-        c5 = p[_ALLOC + 5 * nt + i]
+        c0 = p[_ALLOC + 6 * i + 0]
+        c1 = p[_ALLOC + 6 * i + 1]
+        c2 = p[_ALLOC + 6 * i + 2]
+        c3 = p[_ALLOC + 6 * i + 3]
+        c4 = p[_ALLOC + 6 * i + 4]
+        c5 = p[_ALLOC + 6 * i + 5]
         va = c0 * vu + c1 * vv + c2 * vw + c3 * vp + c4 * vq + c5 * vr
-        thrust = k1 * n * abs(n) - k2 * va * n
+        thrust = k1 * n * abs(n) - k2 * va * abs(n)
         r0 += c0 * thrust
         r1 += c1 * thrust
         r2 += c2 * thrust
@@ -201,7 +202,7 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
             out[12 + i] = (u[i] - x[12 + i]) * inv_tn
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _minv_column(p, out, col, c0, c1, c2, c3, c4, c5):  # pragma: no cover - compiled
     """out[6:12, col] = M^-1 (c0..c5)."""
     for k in range(6):
@@ -216,7 +217,7 @@ def _minv_column(p, out, col, c0, c1, c2, c3, c4, c5):  # pragma: no cover - com
         )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
     """df/dx for one state; writes ``out`` (shape (nx, nx)).
 
@@ -300,18 +301,30 @@ def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
     ky = ct * cf
     kz = -ct * sf
     _minv_column(
-        p, out, 3,
-        wb * kx, wb * ky, wb * kz,
-        hy * kz - hz * ky, hz * kx - hx * kz, hx * ky - hy * kx,
+        p,
+        out,
+        3,
+        wb * kx,
+        wb * ky,
+        wb * kz,
+        hy * kz - hz * ky,
+        hz * kx - hx * kz,
+        hx * ky - hy * kx,
     )
     # dk/dtheta = (-ct, -st sf, -st cf)
     kx = -ct
     ky = -st * sf
     kz = -st * cf
     _minv_column(
-        p, out, 4,
-        wb * kx, wb * ky, wb * kz,
-        hy * kz - hz * ky, hz * kx - hx * kz, hx * ky - hy * kx,
+        p,
+        out,
+        4,
+        wb * kx,
+        wb * ky,
+        wb * kz,
+        hy * kz - hz * ky,
+        hz * kx - hx * kz,
+        hx * ky - hy * kx,
     )
 
     # --- d f_v / d v, eqs. (13) and (16)
@@ -396,30 +409,30 @@ def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
             c4 -= dd
         else:
             c5 -= dd
-        # thrusters: d tau / dv = -K2 B diag(n) B^T, eq. (16)
+        # thrusters: d tau / dv = -K2 B diag(|n|) B^T, eq. (16)
         for i in range(nt):
             n = x[12 + i] if lag else u[i]
-            s = -k2 * n * p[_ALLOC + j * nt + i]
-            c0 += p[_ALLOC + i] * s
-            c1 += p[_ALLOC + nt + i] * s
-            c2 += p[_ALLOC + 2 * nt + i] * s
-            c3 += p[_ALLOC + 3 * nt + i] * s
-            c4 += p[_ALLOC + 4 * nt + i] * s
-            c5 += p[_ALLOC + 5 * nt + i] * s
+            s = -k2 * abs(n) * p[_ALLOC + 6 * i + j]
+            c0 += p[_ALLOC + 6 * i + 0] * s
+            c1 += p[_ALLOC + 6 * i + 1] * s
+            c2 += p[_ALLOC + 6 * i + 2] * s
+            c3 += p[_ALLOC + 6 * i + 3] * s
+            c4 += p[_ALLOC + 6 * i + 4] * s
+            c5 += p[_ALLOC + 6 * i + 5] * s
         _minv_column(p, out, 6 + j, c0, c1, c2, c3, c4, c5)
 
     if lag:
-        # d f_v / d n = M^-1 B diag(2 K1 |n| - K2 v_a), and the lag rows, eq. (3)
+        # d f_v / d n = M^-1 B diag(2 K1 |n| - K2 v_a sign(n)), and the lag rows, eq. (3)
         inv_tn = 1.0 / p[_TN]
         for i in range(nt):
             n = x[12 + i]
-            c0 = p[_ALLOC + i]
-            c1 = p[_ALLOC + nt + i]
-            c2 = p[_ALLOC + 2 * nt + i]
-            c3 = p[_ALLOC + 3 * nt + i]
-            c4 = p[_ALLOC + 4 * nt + i]
-            c5 = p[_ALLOC + 5 * nt + i]
+            c0 = p[_ALLOC + 6 * i + 0]
+            c1 = p[_ALLOC + 6 * i + 1]
+            c2 = p[_ALLOC + 6 * i + 2]
+            c3 = p[_ALLOC + 6 * i + 3]
+            c4 = p[_ALLOC + 6 * i + 4]
+            c5 = p[_ALLOC + 6 * i + 5]
             va = c0 * vu + c1 * vv + c2 * vw + c3 * vp + c4 * vq + c5 * vr
-            s = 2.0 * k1 * abs(n) - k2 * va
+            s = 2.0 * k1 * abs(n) - k2 * va * (1.0 if n > 0 else (-1.0 if n < 0 else 0.0))
             _minv_column(p, out, 12 + i, c0 * s, c1 * s, c2 * s, c3 * s, c4 * s, c5 * s)
             out[12 + i, 12 + i] = -inv_tn

@@ -1,7 +1,19 @@
 """Paper-style tables and matplotlib figures."""
 
 from ._auv_figs import plot_error_vs_order as plot_error_vs_order
+from ._fig7 import fig7_table as fig7_table
+from ._fig7 import norm_evidence as norm_evidence
+from ._fig7 import plot_fig7 as plot_fig7
+from ._fig7 import ratio_phrase as ratio_phrase
 from ._tables import format_grid as format_grid
 from ._tables import write_csv as write_csv
 
-__all__ = ["format_grid", "plot_error_vs_order", "write_csv"]
+__all__ = [
+    "fig7_table",
+    "format_grid",
+    "norm_evidence",
+    "plot_error_vs_order",
+    "plot_fig7",
+    "ratio_phrase",
+    "write_csv",
+]

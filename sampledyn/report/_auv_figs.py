@@ -34,8 +34,9 @@ def plot_error_vs_order(
         fam = r["method"].rstrip("0123456789") if r["method"][-1].isdigit() else r["method"]
         families.setdefault(fam, []).append(r)
     cmap = plt.get_cmap("viridis")
-    fig, axes = plt.subplots(1, len(norms), figsize=(5.2 * len(norms), 4.8), sharey=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(norms), figsize=(5.2 * len(norms), 4.8), sharey=True, squeeze=False
+    )
     for ax, (norm, caption) in zip(axes[0], norms, strict=True):
         _panel(ax, rows, families, ratios, norm, caption, cmap)
     axes[0][0].set_ylabel("local error, rms over both states")
@@ -47,8 +48,15 @@ def plot_error_vs_order(
     return path
 
 
-def _panel(ax: Any, rows: Sequence[dict[str, Any]], families: dict[str, list[dict[str, Any]]],
-           ratios: list[int], norm: str, caption: str, cmap: Any) -> None:
+def _panel(
+    ax: Any,
+    rows: Sequence[dict[str, Any]],
+    families: dict[str, list[dict[str, Any]]],
+    ratios: list[int],
+    norm: str,
+    caption: str,
+    cmap: Any,
+) -> None:
     styles = {"AB": "-", "RK": "-", "ABe": "--"}
     markers = {"E": "o", "T": "s", "Ee": "D"}
     for k, ratio in enumerate(ratios):

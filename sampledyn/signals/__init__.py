@@ -2,7 +2,18 @@
 
 from ._base import InputSpec as InputSpec
 from ._base import Signal as Signal
+from ._fig6 import FIG6_TABLE as FIG6_TABLE
+from ._fig6 import fig6_thrusters as fig6_thrusters
 from ._multilevel import Multilevel as Multilevel
 from ._multilevel import ZeroOrderHold as ZeroOrderHold
+from ._sinusoid import Sinusoidal as Sinusoidal
 
-__all__ = ["InputSpec", "Multilevel", "Signal", "ZeroOrderHold"]
+__all__ = [
+    "FIG6_TABLE",
+    "InputSpec",
+    "fig6_thrusters",
+    "Multilevel",
+    "Signal",
+    "Sinusoidal",
+    "ZeroOrderHold",
+]

@@ -1,0 +1,108 @@
+"""Estimated Adams-Bashforth rules, Ee (= ABe1) and ABe_s (paper, section 4.2).
+
+A rule of this family first estimates the model's parameters on the data it is asked
+to predict, minimising the l_p norm of the AB_s one-step errors
+(:func:`sampledyn.estimate`), then predicts with AB_s and the estimated model. The
+object itself holds only settings (frozen); the estimate is returned by
+:meth:`EstimatedAdamsBashforth.estimate` or :func:`sampledyn.estimate_and_predict`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._trajectory import Trajectory
+from ._adams import ab_coefficients
+
+__all__ = ["EstimatedAdamsBashforth"]
+
+
+@dataclass(frozen=True)
+class EstimatedAdamsBashforth:
+    """ABe_s: Adams-Bashforth of order s with parameters estimated on the data.
+
+    Parameters
+    ----------
+    order : int
+        s >= 1; order 1 is "Ee", estimated Euler.
+    name : str
+        Defaults to "ABe<s>".
+    p : float
+        Norm of the one-step errors minimised, 1 <= p <= inf. Default 2.
+    after_fraction : float, optional
+        Estimate on the samples with ``t >= t_0 + after_fraction (t_end - t_0)``
+        only (the "stationary state"); None uses every sample. Predictions are made
+        for every sample either way.
+    params : tuple of str, optional
+        Parameters to estimate (default: those ``model.regressors`` is linear in).
+    free_weights : bool
+        Estimate the s AB weights too (see :func:`sampledyn.estimate`).
+    """
+
+    order: int
+    name: str = ""
+    p: float = 2.0
+    after_fraction: float | None = None
+    params: tuple[str, ...] | None = None
+    free_weights: bool = False
+
+    estimates_params = True
+
+    def __post_init__(self) -> None:
+        ab_coefficients(self.order)  # validates the order
+        if not self.name:
+            object.__setattr__(self, "name", f"ABe{self.order}")
+        if self.after_fraction is not None and not (0.0 <= self.after_fraction < 1.0):
+            raise ValueError(
+                f"`after_fraction` must be in [0, 1) or None, got {self.after_fraction}."
+            )
+        if not (self.p >= 1.0 or math.isinf(self.p)):
+            raise ValueError(f"`p` must be >= 1, got {self.p}.")
+        if self.params is not None:
+            object.__setattr__(self, "params", tuple(self.params))
+
+    @property
+    def history(self) -> int:
+        return self.order
+
+    @property
+    def structure(self) -> str:
+        """The fixed rule whose one-step errors are minimised, "AB<s>"."""
+        return f"AB{self.order}"
+
+    def _after(self, data: Trajectory) -> float | None:
+        if self.after_fraction is None:
+            return None
+        t0, t1 = float(data.t[0]), float(data.t[-1])
+        return t0 + self.after_fraction * (t1 - t0)
+
+    def estimate_and_predict(
+        self, model: Any, data: Trajectory, signal: Any = None
+    ) -> tuple[np.ndarray, Any]:
+        """``(x_hat, EstimationResult)``: the estimate on ``data`` and the one-step
+        predictions of AB_s with it, x_hat shape (N, nx)."""
+        from ..estimate import estimate_and_predict
+
+        return estimate_and_predict(
+            model,
+            data,
+            self.structure,
+            signal=signal,
+            p=self.p,
+            after=self._after(data),
+            params=self.params,
+            free_weights=self.free_weights,
+        )
+
+    def estimate(self, model: Any, data: Trajectory, signal: Any = None) -> Any:
+        """The :class:`~sampledyn.EstimationResult` this rule predicts with."""
+        return self.estimate_and_predict(model, data, signal)[1]
+
+    def predict(self, model: Any, data: Trajectory, signal: Any = None) -> np.ndarray:
+        """Estimate on ``data``, then x_hat[n + 1] for every n, shape (N, nx); NaN in
+        the first s rows. ``model`` supplies the structure and the fixed parameters."""
+        return self.estimate_and_predict(model, data, signal)[0]

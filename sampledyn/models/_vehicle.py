@@ -1,0 +1,574 @@
+"""The paper's 6-DoF vehicle in Fossen form, eqs. (1)-(7), with analytic Jacobians (13)-(18).
+
+    eta' = J(eta) (v + v_c)                                                (6)
+    v'   = M^-1 (-C(v) v - D(v) v + g(eta) + tau + tau_c)                  (5)
+    tau  = B T,   T_i = K1 n_i |n_i| - K2 v_a,i |n_i|                      (7)
+    n'   = (n_r - n) / T_n        (optional thruster lag, eq. (3))
+
+* ``M = M_RB + M_A``: rigid body about the body origin CO (mass, inertia about the
+  centre of gravity r_G) plus diagonal added mass.
+* ``C(v) = C_RB(v) + C_A(v)`` from the blocks of M (Fossen 2011, eqs. 3.46, 6.43).
+* ``D(v) = D_l + D_q |v|`` (diagonal, positive coefficients).
+* ``g(eta)`` = restoring force of weight W = m g at r_G and buoyancy B = rho g V at
+  r_B, with the paper's sign (added in eq. (5), i.e. minus Fossen's eq. 4.6).
+* ``J(eta) = diag(R(Theta), T(Theta))`` with ZYX Euler angles; singular at
+  theta = +-90 deg.
+* Thrusters: T_i along the unit axis d_i at r_i; the allocation B (6 x N) has
+  columns ``[d_i; r_i x d_i]`` and ``v_a,i = B[:, i] . v`` is the thruster's body
+  velocity along its axis. The input is the thruster rpm (rev/min). The inflow term
+  is ``K2 v_a |n|`` (Fossen 2011, eq. 6.116 form ``T_|n|Va |n| V_a``): the paper's
+  ``K2 v^T n`` read literally as ``K2 v_a n`` would make a thruster spinning in
+  reverse *gain* thrust when the vehicle moves the way it pushes.
+
+State ``x = (eta, v)`` (12) or ``(eta, v, n)`` (12 + N) with the lag option.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+import numpy as np
+
+from ._base import CompiledModel, LinearForm
+from ._rigid_body import (
+    check_pitch,
+    coriolis_matrix,
+    restoring_force,
+    rigid_body_mass_matrix,
+    rotation_jacobian,
+    thruster_allocation,
+)
+from ._vehicle_kernels import pack_params, vehicle_jac, vehicle_rhs
+
+__all__ = ["Vehicle"]
+
+_ETA_NAMES = ("x", "y", "z", "phi", "theta", "psi")
+_V_NAMES = ("u", "v", "w", "p", "q", "r")
+_ETA_UNITS = ("m", "m", "m", "rad", "rad", "rad")
+_V_UNITS = ("m/s", "m/s", "m/s", "rad/s", "rad/s", "rad/s")
+
+# Scalar parameter names (Fossen / SNAME notation). The hydrodynamic coefficients are
+# stored as positive magnitudes: M_A = diag(X_udot, ...), D_l = diag(X_u, ...),
+# D_q = diag(X_uu, ...); Fossen's X_udot, X_u, X_|u|u are minus these.
+ADDED_MASS_NAMES = ("X_udot", "Y_vdot", "Z_wdot", "K_pdot", "M_qdot", "N_rdot")
+LINEAR_DAMPING_NAMES = ("X_u", "Y_v", "Z_w", "K_p", "M_q", "N_r")
+QUADRATIC_DAMPING_NAMES = ("X_uu", "Y_vv", "Z_ww", "K_pp", "M_qq", "N_rr")
+_ADDED_MASS_UNITS = ("kg",) * 3 + ("kg m^2",) * 3
+_LINEAR_UNITS = ("N s/m",) * 3 + ("N m s/rad",) * 3
+_QUADRATIC_UNITS = ("N s^2/m^2",) * 3 + ("N m s^2/rad^2",) * 3
+
+# name -> (field, index or None)
+_PARAMS: dict[str, tuple[str, int | None]] = {
+    "mass": ("mass", None),
+    "Ix": ("inertia", 0),
+    "Iy": ("inertia", 1),
+    "Iz": ("inertia", 2),
+    "x_G": ("r_G", 0),
+    "y_G": ("r_G", 1),
+    "z_G": ("r_G", 2),
+    "x_B": ("r_B", 0),
+    "y_B": ("r_B", 1),
+    "z_B": ("r_B", 2),
+    "volume": ("volume", None),
+    "rho": ("rho", None),
+    "g": ("g", None),
+    **{n: ("added_mass", i) for i, n in enumerate(ADDED_MASS_NAMES)},
+    **{n: ("linear_damping", i) for i, n in enumerate(LINEAR_DAMPING_NAMES)},
+    **{n: ("quadratic_damping", i) for i, n in enumerate(QUADRATIC_DAMPING_NAMES)},
+    "K1": ("K1", None),
+    "K2": ("K2", None),
+    "n_max": ("n_max", None),
+    "T_n": ("lag_time_constant", None),
+}
+PARAM_UNITS: dict[str, str] = {
+    "mass": "kg",
+    "Ix": "kg m^2",
+    "Iy": "kg m^2",
+    "Iz": "kg m^2",
+    **{n: "m" for n in ("x_G", "y_G", "z_G", "x_B", "y_B", "z_B")},
+    "volume": "m^3",
+    "rho": "kg/m^3",
+    "g": "m/s^2",
+    **dict(zip(ADDED_MASS_NAMES, _ADDED_MASS_UNITS, strict=True)),
+    **dict(zip(LINEAR_DAMPING_NAMES, _LINEAR_UNITS, strict=True)),
+    **dict(zip(QUADRATIC_DAMPING_NAMES, _QUADRATIC_UNITS, strict=True)),
+    "K1": "N/rpm^2",
+    "K2": "N s/(m rpm)",
+    "n_max": "rpm",
+    "T_n": "s",
+}
+
+
+class VehicleParameterError(ValueError):
+    """A bad vehicle parameter; ``argument`` names the constructor argument."""
+
+    def __init__(self, argument: str, message: str) -> None:
+        super().__init__(message)
+        self.argument = argument
+
+
+def _vector(name: str, value: Any, size: int) -> tuple[float, ...]:
+    a = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+    if a is None or a.shape != (size,):
+        raise VehicleParameterError(name, f"`{name}` must be {size} numbers, got {value!r}.")
+    if not np.isfinite(a).all():
+        raise VehicleParameterError(name, f"`{name}` must be finite, got {value!r}.")
+    return tuple(float(c) for c in a)
+
+
+def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise VehicleParameterError(name, f"`{name}` must be a number, got {value!r}.")
+    v = float(value)
+    if not math.isfinite(v):
+        raise VehicleParameterError(name, f"`{name}` must be finite, got {value!r}.")
+    if positive and v <= 0:
+        raise VehicleParameterError(name, f"`{name}` must be > 0, got {v}.")
+    if nonneg and v < 0:
+        raise VehicleParameterError(name, f"`{name}` must be >= 0, got {v}.")
+    return v
+
+
+@dataclass(frozen=True)
+class Vehicle(CompiledModel):
+    """6-DoF underwater vehicle in Fossen form, eqs. (5)-(7), input = thruster rpm.
+
+    Usually built from a vehicle file by :func:`sampledyn.models.load_vehicle`.
+    Array-like arguments are stored as tuples; the model is immutable and
+    :meth:`with_params` returns a changed copy.
+
+    Parameters
+    ----------
+    mass : float
+        Mass m (kg).
+    inertia : array_like, shape (3,)
+        Principal moments (I_x, I_y, I_z) about the centre of gravity (kg m^2).
+    r_G, r_B : array_like, shape (3,)
+        Centres of gravity and buoyancy in body axes from the body origin (m).
+    volume : float
+        Displaced volume V (m^3); buoyancy B = rho g V.
+    added_mass : array_like, shape (6,)
+        Positive added-mass magnitudes, ``M_A = diag(added_mass)`` (kg, kg m^2).
+    linear_damping, quadratic_damping : array_like, shape (6,)
+        ``D(v) = diag(linear_damping) + diag(quadratic_damping) |v|``
+        (N s/m, N m s/rad; N s^2/m^2, N m s^2/rad^2).
+    thruster_positions, thruster_directions : array_like, shape (N, 3)
+        Thruster positions r_i (m) and unit thrust axes d_i (body axes); a positive
+        rpm pushes the vehicle along d_i.
+    K1 : float
+        Thrust coefficient of eq. (7) (N/rpm^2); the paper's matrix is K1 I.
+    K2 : float
+        Inflow coefficient of eq. (7) (N s/(m rpm)); the paper's matrix is K2 I.
+    n_max : float
+        Maximum thruster speed (rpm); informational (inputs in % of it, Fig. 6).
+    rho : float
+        Water density (kg/m^3). Default 1000.
+    g : float
+        Gravity (m/s^2). Default 9.81.
+    lag_time_constant : float
+        T_n of the first-order thruster lag (s), used when ``thruster_lag``.
+    thruster_lag : bool
+        Model eq. (3) as ``n' = (n_r - n) / T_n`` with the N rpm as extra states;
+        off by default (the paper's case study treats it as parasitic).
+    current : array_like, shape (6,)
+        Constant current v_c (m/s, rad/s). With ``current_frame="body"`` (default)
+        it enters as in eq. (6), ``eta' = J(eta)(v + v_c)``: a body-frame velocity.
+        With ``"ned"`` it is a constant NED velocity added to eta'
+        (``eta' = J(eta) v + v_c``; the angular part is then Euler-angle rates).
+        As in the paper, the current does not enter the damping of eq. (5).
+    current_frame : {"body", "ned"}
+    cable_force : array_like, shape (6,)
+        Constant cable force tau_c in body axes (N, N m), eq. (5).
+    pitch_limit_deg : float
+        ``f`` and ``jacobian`` warn when some |theta| exceeds this (deg). Default 80:
+        there 1/cos(theta) = 5.8, and the norms of J and dJ/deta (eqs. (22)-(23))
+        make prediction errors grow (the paper advises |theta| well below 40 deg).
+    pitch_tolerance_deg : float
+        ``f`` and ``jacobian`` raise ValueError when some |theta| is within this of
+        90 deg, where J(eta) is singular. Default 0.5 (1/cos(theta) = 115).
+    name : str
+        Label.
+    sources : mapping, optional
+        Where each parameter came from (filled by the vehicle-file loader).
+    """
+
+    mass: float
+    inertia: tuple[float, ...]
+    r_G: tuple[float, ...]
+    r_B: tuple[float, ...]
+    volume: float
+    added_mass: tuple[float, ...]
+    linear_damping: tuple[float, ...]
+    quadratic_damping: tuple[float, ...]
+    thruster_positions: tuple[tuple[float, ...], ...]
+    thruster_directions: tuple[tuple[float, ...], ...]
+    K1: float
+    K2: float
+    n_max: float
+    rho: float = 1000.0
+    g: float = 9.81
+    lag_time_constant: float = 0.1
+    thruster_lag: bool = False
+    current: tuple[float, ...] = (0.0,) * 6
+    current_frame: str = "body"
+    cable_force: tuple[float, ...] = (0.0,) * 6
+    pitch_limit_deg: float = 80.0
+    pitch_tolerance_deg: float = 0.5
+    name: str = "vehicle"
+    sources: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
+
+    # Derived in __post_init__.
+    n_thrusters: int = field(init=False, repr=False, compare=False)
+    weight: float = field(init=False, repr=False, compare=False)  # W = m g (N)
+    buoyancy: float = field(init=False, repr=False, compare=False)  # B = rho g V (N)
+    _M: np.ndarray = field(init=False, repr=False, compare=False)
+    _Minv: np.ndarray = field(init=False, repr=False, compare=False)
+    _alloc: np.ndarray = field(init=False, repr=False, compare=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
+
+    param_units = PARAM_UNITS
+
+    @property
+    def kink_states(self) -> tuple[int, ...]:
+        """State indices inside ``|.|`` (damping |v| v; thruster n |n| with lag): the
+        simulator ends its internal steps where they cross zero."""
+        lag = tuple(range(12, 12 + self.n_thrusters)) if self.thruster_lag else ()
+        return tuple(range(6, 12)) + lag
+
+    @property
+    def kink_inputs(self) -> tuple[int, ...]:
+        """Input indices inside ``|.|`` (thruster rpm n |n| without the lag option)."""
+        return () if self.thruster_lag else tuple(range(self.n_thrusters))
+
+    def __post_init__(self) -> None:
+        put = object.__setattr__
+        put(self, "mass", _scalar("mass", self.mass, positive=True))
+        inertia = _vector("inertia", self.inertia, 3)
+        if min(inertia) <= 0:
+            raise VehicleParameterError("inertia", f"`inertia` must be > 0, got {inertia}.")
+        put(self, "inertia", inertia)
+        for name, size in (
+            ("r_G", 3),
+            ("r_B", 3),
+            ("added_mass", 6),
+            ("linear_damping", 6),
+            ("quadratic_damping", 6),
+            ("current", 6),
+            ("cable_force", 6),
+        ):
+            put(self, name, _vector(name, getattr(self, name), size))
+        put(self, "volume", _scalar("volume", self.volume, nonneg=True))
+        for name in ("rho", "g", "n_max", "lag_time_constant"):
+            put(self, name, _scalar(name, getattr(self, name), positive=True))
+        for name in ("K1", "K2"):
+            put(self, name, _scalar(name, getattr(self, name)))
+        put(self, "pitch_limit_deg", _scalar("pitch_limit_deg", self.pitch_limit_deg))
+        put(self, "pitch_tolerance_deg", _scalar("pitch_tolerance_deg", self.pitch_tolerance_deg))
+        if not 0 < self.pitch_tolerance_deg < 90 or not 0 < self.pitch_limit_deg < 90:
+            raise VehicleParameterError(
+                "pitch_limit_deg",
+                "`pitch_limit_deg` and `pitch_tolerance_deg` must be in (0, 90) deg, got "
+                f"{self.pitch_limit_deg} and {self.pitch_tolerance_deg}.",
+            )
+        if self.current_frame not in ("body", "ned"):
+            raise VehicleParameterError(
+                "current_frame",
+                f"`current_frame` must be 'body' or 'ned', got {self.current_frame!r}.",
+            )
+        if not isinstance(self.thruster_lag, bool | np.bool_):
+            raise VehicleParameterError(
+                "thruster_lag", f"`thruster_lag` must be True or False, got {self.thruster_lag!r}."
+            )
+        put(self, "thruster_lag", bool(self.thruster_lag))
+        put(self, "sources", dict(self.sources))
+
+        pos = np.asarray(self.thruster_positions, dtype=float)
+        dirs = np.asarray(self.thruster_directions, dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
+            raise VehicleParameterError(
+                "thruster_positions",
+                f"`thruster_positions` must have shape (N, 3) with N >= 1, got {pos.shape}.",
+            )
+        if dirs.shape != pos.shape:
+            raise VehicleParameterError(
+                "thruster_directions",
+                f"`thruster_directions` must have the shape of `thruster_positions` "
+                f"{pos.shape}, got {dirs.shape}.",
+            )
+        if not (np.isfinite(pos).all() and np.isfinite(dirs).all()):
+            raise VehicleParameterError(
+                "thruster_positions", "thruster positions and directions must be finite."
+            )
+        norms = np.linalg.norm(dirs, axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-3)
+        if bad.size:
+            i = int(bad[0])
+            raise VehicleParameterError(
+                "thruster_directions",
+                f"`thruster_directions[{i}]` must be a unit vector, its norm is {norms[i]:.6g}; "
+                "divide it by its norm.",
+            )
+        dirs = dirs / norms[:, None]
+        put(self, "thruster_positions", tuple(tuple(float(c) for c in r) for r in pos))
+        put(self, "thruster_directions", tuple(tuple(float(c) for c in d) for d in dirs))
+
+        m_rb = rigid_body_mass_matrix(self.mass, self.inertia, self.r_G)
+        M = m_rb + np.diag(self.added_mass)
+        if not np.allclose(M, M.T, rtol=0.0, atol=1e-12 * np.abs(M).max()):
+            raise VehicleParameterError("added_mass", "M = M_RB + M_A is not symmetric.")
+        try:
+            np.linalg.cholesky(M)
+        except np.linalg.LinAlgError:
+            raise VehicleParameterError(
+                "added_mass",
+                "M = M_RB + M_A is not positive definite (eigenvalues "
+                f"{np.round(np.linalg.eigvalsh(M), 6).tolist()}); check `added_mass`, "
+                "`mass`, `inertia` and `r_G`.",
+            ) from None
+        minv = np.linalg.inv(M)
+        minv = 0.5 * (minv + minv.T)
+        alloc = thruster_allocation(pos, dirs)
+        n_thr = pos.shape[0]
+        W = self.mass * self.g
+        Bf = self.rho * self.g * self.volume
+        current = np.asarray(self.current)
+        zeros = np.zeros(6)
+        p = pack_params(
+            n_thrusters=n_thr,
+            lag=self.thruster_lag,
+            lag_time_constant=self.lag_time_constant,
+            K1=self.K1,
+            K2=self.K2,
+            W=W,
+            B=Bf,
+            r_G=np.asarray(self.r_G),
+            r_B=np.asarray(self.r_B),
+            linear_damping=np.asarray(self.linear_damping),
+            quadratic_damping=np.asarray(self.quadratic_damping),
+            cable_force=np.asarray(self.cable_force),
+            current_body=current if self.current_frame == "body" else zeros,
+            current_ned=current if self.current_frame == "ned" else zeros,
+            M=M,
+            Minv=minv,
+            allocation=alloc,
+        )
+        for a in (M, minv, alloc):
+            a.setflags(write=False)
+        put(self, "_M", M)
+        put(self, "_Minv", minv)
+        put(self, "_alloc", alloc)
+        put(self, "_p", p)
+        put(self, "n_thrusters", n_thr)
+        put(self, "weight", W)
+        put(self, "buoyancy", Bf)
+        nx = 12 + (n_thr if self.thruster_lag else 0)
+        put(self, "nx", nx)
+        put(self, "nu", n_thr)
+        lag_names = tuple(f"n{i + 1}" for i in range(n_thr)) if self.thruster_lag else ()
+        put(self, "state_names", _ETA_NAMES + _V_NAMES + lag_names)
+        put(self, "state_units", _ETA_UNITS + _V_UNITS + ("rpm",) * len(lag_names))
+        put(self, "input_names", tuple(f"n_r{i + 1}" for i in range(n_thr)))
+        put(self, "input_units", ("rpm",) * n_thr)
+
+    # ------------------------------------------------------------------ attributes
+    @property
+    def params(self) -> dict[str, float]:
+        """Scalar parameters by name (units in :attr:`param_units`)."""
+        out = {}
+        for name, (fld, idx) in _PARAMS.items():
+            value = getattr(self, fld)
+            out[name] = float(value if idx is None else value[idx])
+        return out
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(_PARAMS)
+
+    def with_params(self, **values: Any) -> Vehicle:
+        """The same vehicle with some parameters or options changed.
+
+        Accepts the scalar names of :attr:`params` (e.g. ``X_u=10.0``, ``mass=14``)
+        and the constructor arguments (e.g. ``thruster_lag=True``,
+        ``cable_force=(5, 0, 0, 0, 0, 0)``).
+        """
+        field_names = {f.name for f in fields(self) if f.init}
+        unknown = set(values) - set(_PARAMS) - field_names
+        if unknown:
+            raise TypeError(
+                f"unknown parameter(s) {sorted(unknown)}; valid: {list(_PARAMS)} or the "
+                f"constructor arguments {sorted(field_names)}."
+            )
+        changes: dict[str, Any] = {}
+        vectors: dict[str, list[float]] = {}
+        for name, value in values.items():
+            if name in field_names:
+                changes[name] = value
+                continue
+            fld, idx = _PARAMS[name]
+            if idx is None:
+                changes[fld] = value
+            else:
+                vec = vectors.setdefault(fld, list(getattr(self, fld)))
+                vec[idx] = value
+        for fld, vec in vectors.items():
+            if fld in changes:
+                raise TypeError(f"`{fld}` given both whole and by component.")
+            changes[fld] = tuple(vec)
+        return replace(self, **changes)
+
+    @property
+    def mass_matrix(self) -> np.ndarray:
+        """M = M_RB + M_A, shape (6, 6) (kg, kg m, kg m^2)."""
+        return np.array(self._M)
+
+    @property
+    def minv(self) -> np.ndarray:
+        """M^-1, shape (6, 6), computed once."""
+        return np.array(self._Minv)
+
+    @property
+    def allocation(self) -> np.ndarray:
+        """Thrust allocation B, shape (6, N): column i is ``[d_i; r_i x d_i]``."""
+        return np.array(self._alloc)
+
+    # --------------------------------------------------------------- model blocks
+    def J(self, eta: Any) -> np.ndarray:
+        """Kinematic transformation J(eta) of eq. (6), shape (N, 6, 6) (or (6, 6))."""
+        eta = np.asarray(eta, dtype=float)
+        self._pitch_guard(eta[..., 4])
+        return rotation_jacobian(eta, tolerance_deg=self.pitch_tolerance_deg)
+
+    def restoring(self, eta: Any) -> np.ndarray:
+        """g(eta) with the sign of eq. (5) (N, N m), shape (N, 6) (or (6,))."""
+        return restoring_force(eta, self.weight, self.buoyancy, self.r_G, self.r_B)
+
+    def coriolis(self, v: Any) -> np.ndarray:
+        """C(v) = C_RB(v) + C_A(v), shape (N, 6, 6) (or (6, 6)); skew-symmetric."""
+        return coriolis_matrix(self._M, v)
+
+    def damping(self, v: Any) -> np.ndarray:
+        """D(v) = D_l + D_q |v|, shape (N, 6, 6) (or (6, 6)); diagonal."""
+        v = np.asarray(v, dtype=float)
+        if v.shape[-1:] != (6,) or v.ndim > 2:
+            raise ValueError(f"`v` must have shape (N, 6) or (6,), got {v.shape}.")
+        diag = np.asarray(self.linear_damping) + np.asarray(self.quadratic_damping) * np.abs(v)
+        return diag[..., :, None] * np.eye(6)
+
+    def thrust(self, x: Any, u: Any) -> np.ndarray:
+        """Thruster forces T of eq. (7) (N), shape (N, n_thrusters) (or (n_thrusters,)).
+
+        The rpm are ``u`` (or the lag states of ``x`` when ``thruster_lag``).
+        """
+        xb = np.atleast_2d(np.asarray(x, dtype=float))
+        if xb.shape[-1] != self.nx:
+            raise ValueError(f"`x` must have shape (N, {self.nx}), got {np.shape(x)}.")
+        if self.thruster_lag:
+            n = xb[:, 12:]
+        else:
+            n = np.broadcast_to(np.asarray(u, dtype=float), (xb.shape[0], self.nu))
+        va = xb[:, 6:12] @ self._alloc
+        t = self.K1 * n * np.abs(n) - self.K2 * va * np.abs(n)
+        return t[0] if np.ndim(x) == 1 else t
+
+    # -------------------------------------------------------------- compiled model
+    def kernel(self) -> tuple[Any, np.ndarray]:
+        return vehicle_rhs, self._p
+
+    def jacobian_kernel(self) -> tuple[Any, np.ndarray]:
+        return vehicle_jac, self._p
+
+    def _pitch_guard(self, theta: Any, stacklevel: int = 3) -> None:
+        past, worst = check_pitch(theta, self.pitch_tolerance_deg, self.pitch_limit_deg)
+        if past:
+            warnings.warn(
+                f"pitch |theta| up to {worst:.1f} deg exceeds pitch_limit_deg = "
+                f"{self.pitch_limit_deg:g} deg: J(eta) and dJ/deta grow like 1/cos(theta) "
+                "(eqs. (22)-(23)), so predictions lose accuracy near theta = +-90 deg.",
+                stacklevel=stacklevel,
+            )
+
+    def _guard_x(self, x: Any) -> None:
+        xa = np.asarray(x, dtype=float)
+        if xa.ndim in (1, 2) and xa.shape[-1] == self.nx:
+            self._pitch_guard(xa[..., 4], stacklevel=4)  # the caller of f / jacobian
+
+    def f(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """Right-hand side ``f(t, x, u)``, eqs. (5)-(7) (and (3) with the lag option).
+
+        Parameters
+        ----------
+        t : float or ndarray, shape (N,)
+            Times (s); the vehicle is time-invariant.
+        x : ndarray, shape (N, nx) or (nx,)
+            States ``(eta, v[, n])``.
+        u : ndarray, shape (N, nu) or (nu,)
+            Thruster rpm (references n_r with the lag option).
+
+        Returns
+        -------
+        ndarray, shape (N, nx) (or (nx,))
+
+        Raises
+        ------
+        ValueError
+            If some |theta| is within ``pitch_tolerance_deg`` of 90 deg.
+        """
+        self._guard_x(x)
+        return super().f(t, x, u)
+
+    def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """Analytic ``df/dx``, shape (N, nx, nx) (or (nx, nx)), eqs. (13)-(18).
+
+        Rows/columns follow the state ``(eta, v[, n])``: the blocks are
+        ``df_eta/deta`` (18), ``df_eta/dv = J(eta)`` (17), ``df_v/deta = M^-1 dg/deta``
+        (14), ``df_v/dv`` (13) including the thruster term ``-K2 B diag(|n|) B^T`` (16),
+        and with the lag option ``df_v/dn`` and ``-I/T_n``.
+        """
+        self._guard_x(x)
+        return super().jacobian(t, x, u)
+
+    def jac_v_v(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """df_v/dv, eq. (13) with (16); shape (N, 6, 6)."""
+        return self.jacobian(t, x, u)[..., 6:12, 6:12]
+
+    def jac_v_eta(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """df_v/deta = M^-1 dg/deta, eq. (14); shape (N, 6, 6)."""
+        return self.jacobian(t, x, u)[..., 6:12, 0:6]
+
+    def jac_eta_v(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """df_eta/dv = J(eta), eq. (17); shape (N, 6, 6)."""
+        return self.jacobian(t, x, u)[..., 0:6, 6:12]
+
+    def jac_eta_eta(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """df_eta/deta = d(J(eta)(v + v_c))/deta, eq. (18); shape (N, 6, 6)."""
+        return self.jacobian(t, x, u)[..., 0:6, 0:6]
+
+    # ---------------------------------------------------------------- estimation
+    def regressors(self, t: Any, x: Any, u: Any) -> LinearForm:
+        """``f = Phi @ theta + f0`` with theta = the 12 damping coefficients.
+
+        theta = (X_u, Y_v, Z_w, K_p, M_q, N_r, X_uu, Y_vv, Z_ww, K_pp, M_qq, N_rr).
+        Since ``f_v = M^-1(... - D_l v - D_q |v| v)``, the v rows of Phi are
+        ``-M^-1 diag(v)`` and ``-M^-1 diag(|v| v)``; the eta (and lag) rows are zero.
+        f0 is f of the same vehicle with zero damping.
+
+        Returns
+        -------
+        LinearForm with ``phi`` of shape (N, nx, 12) and ``f0`` of shape (N, nx).
+        """
+        xb = np.atleast_2d(np.asarray(x, dtype=float))
+        if xb.ndim != 2 or xb.shape[1] != self.nx:
+            raise ValueError(f"`x` must have shape (N, {self.nx}), got {np.shape(x)}.")
+        undamped = self.with_params(linear_damping=(0.0,) * 6, quadratic_damping=(0.0,) * 6)
+        f0 = np.atleast_2d(undamped.f(t, xb, u))
+        v = xb[:, 6:12]
+        phi = np.zeros((xb.shape[0], self.nx, 12))
+        phi[:, 6:12, :6] = -self._Minv[None, :, :] * v[:, None, :]
+        phi[:, 6:12, 6:] = -self._Minv[None, :, :] * (np.abs(v) * v)[:, None, :]
+        names = LINEAR_DAMPING_NAMES + QUADRATIC_DAMPING_NAMES
+        units = _LINEAR_UNITS + _QUADRATIC_UNITS
+        return LinearForm(names, units, phi, f0)

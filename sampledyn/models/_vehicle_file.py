@@ -1,0 +1,252 @@
+"""Vehicle files: TOML with a unit and a source for every number.
+
+The format is described in the header of the built-in file
+``sampledyn/models/vehicles/bluerov2_heavy.toml``. In short::
+
+    name = "my_rov"
+    [rigid_body]
+    mass = { value = 13.5, unit = "kg", source = "datasheet" }
+    ...
+    [[thruster]]
+    name = "T1"
+    position = { value = [0.156, 0.111, 0.085], unit = "m", source = "CAD" }
+    direction = { value = [0.7071, -0.7071, 0.0], unit = "1", source = "CAD" }
+
+No unit conversion is done: each number must carry the unit listed in ``_SCHEMA``.
+Every problem raises ValueError naming the field (``rigid_body.mass``,
+``thruster[3].direction``, ...).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from ._vehicle import Vehicle, VehicleParameterError
+
+__all__ = ["builtin_vehicles", "load_vehicle"]
+
+_L6 = ("kg", "kg", "kg", "kg m^2", "kg m^2", "kg m^2")
+_D6 = ("N s/m",) * 3 + ("N m s/rad",) * 3
+_Q6 = ("N s^2/m^2",) * 3 + ("N m s^2/rad^2",) * 3
+
+# table -> key -> (Vehicle argument, unit(s), size (0 = scalar), required)
+_SCHEMA: dict[str, dict[str, tuple[str, str | tuple[str, ...], int, bool]]] = {
+    "environment": {
+        "rho": ("rho", "kg/m^3", 0, True),
+        "g": ("g", "m/s^2", 0, True),
+    },
+    "rigid_body": {
+        "mass": ("mass", "kg", 0, True),
+        "inertia": ("inertia", "kg m^2", 3, True),
+        "r_G": ("r_G", "m", 3, True),
+        "r_B": ("r_B", "m", 3, True),
+        "volume": ("volume", "m^3", 0, True),
+    },
+    "hydrodynamics": {
+        "added_mass": ("added_mass", _L6, 6, True),
+        "linear_damping": ("linear_damping", _D6, 6, True),
+        "quadratic_damping": ("quadratic_damping", _Q6, 6, True),
+    },
+    "thruster_model": {
+        "K1": ("K1", "N/rpm^2", 0, True),
+        "K2": ("K2", "N s/(m rpm)", 0, True),
+        "n_max": ("n_max", "rpm", 0, True),
+        "lag_time_constant": ("lag_time_constant", "s", 0, False),
+    },
+}
+_THRUSTER = {"position": ("m", 3), "direction": ("1", 3)}
+_TOP = {"name", "description", "thruster", *_SCHEMA}
+_NONNEGATIVE = {"linear_damping", "quadratic_damping"}
+
+
+def _fail(path: Any, fld: str, message: str) -> ValueError:
+    return ValueError(f"vehicle file {path}: field `{fld}`: {message}")
+
+
+def _number(path: Any, fld: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _fail(path, fld, f"must be a number, got {value!r}.")
+    if not math.isfinite(value):
+        raise _fail(path, fld, f"must be finite, got {value!r}.")
+    return float(value)
+
+
+def _quantity(
+    path: Any, fld: str, entry: Any, unit: str | tuple[str, ...], size: int
+) -> tuple[Any, str]:
+    """Check ``{ value, unit, source }``; return (value, source)."""
+    if not isinstance(entry, dict):
+        raise _fail(
+            path,
+            fld,
+            f"must be a table {{ value = ..., unit = ..., source = ... }}, got {entry!r}.",
+        )
+    for key in ("value", "unit", "source"):
+        if key not in entry:
+            raise _fail(path, fld, f"missing `{key}`.")
+    extra = set(entry) - {"value", "unit", "source"}
+    if extra:
+        raise _fail(path, fld, f"unknown key(s) {sorted(extra)}; allowed: value, unit, source.")
+    source = entry["source"]
+    if not isinstance(source, str) or not source.strip():
+        raise _fail(path, fld, "`source` must be a non-empty string.")
+    want = unit if isinstance(unit, tuple) else (unit,) * max(size, 1)
+    got = entry["unit"]
+    if isinstance(got, str) and (size == 0 or len(set(want)) == 1):
+        got = (got,) * len(want)
+    if not isinstance(got, tuple | list) or tuple(got) != want:
+        shown = want[0] if len(set(want)) == 1 else list(want)
+        raise _fail(path, fld, f"unit must be {shown!r}, got {entry['unit']!r} (no conversion).")
+    value = entry["value"]
+    if size == 0:
+        return _number(path, fld, value), source
+    if not isinstance(value, list) or len(value) != size:
+        raise _fail(path, fld, f"`value` must be a list of {size} numbers, got {value!r}.")
+    return tuple(_number(path, f"{fld}[{i}]", c) for i, c in enumerate(value)), source
+
+
+def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
+    unknown = set(data) - _TOP
+    if unknown:
+        raise _fail(
+            path, sorted(unknown)[0], f"unknown key; allowed top-level keys: {sorted(_TOP)}."
+        )
+    kwargs: dict[str, Any] = {}
+    sources: dict[str, str] = {}
+    name = data.get("name")
+    if not isinstance(name, str) or not name:
+        raise _fail(path, "name", "missing or not a non-empty string.")
+    kwargs["name"] = name
+    if "description" in data and not isinstance(data["description"], str):
+        raise _fail(path, "description", "must be a string.")
+    for table, spec in _SCHEMA.items():
+        content = data.get(table)
+        if content is None:
+            raise _fail(path, table, "missing table.")
+        if not isinstance(content, dict):
+            raise _fail(path, table, "must be a table.")
+        unknown = set(content) - set(spec)
+        if unknown:
+            key = sorted(unknown)[0]
+            raise _fail(path, f"{table}.{key}", f"unknown key; allowed: {sorted(spec)}.")
+        for key, (arg, unit, size, required) in spec.items():
+            fld = f"{table}.{key}"
+            if key not in content:
+                if required:
+                    raise _fail(path, fld, "missing.")
+                continue
+            value, source = _quantity(path, fld, content[key], unit, size)
+            if arg in _NONNEGATIVE and min(value) < 0:
+                raise _fail(path, fld, f"damping must be >= 0, got {value}.")
+            kwargs[arg] = value
+            sources[arg] = source
+    thrusters = data.get("thruster")
+    if not isinstance(thrusters, list) or not thrusters:
+        raise _fail(path, "thruster", "missing: give at least one [[thruster]] table.")
+    positions: list[Any] = []
+    directions: list[Any] = []
+    for i, th in enumerate(thrusters):
+        base = f"thruster[{i}]"
+        if not isinstance(th, dict):
+            raise _fail(path, base, "must be a table.")
+        unknown = set(th) - {"name", *_THRUSTER}
+        if unknown:
+            raise _fail(
+                path,
+                f"{base}.{sorted(unknown)[0]}",
+                "unknown key; allowed: name, position, direction.",
+            )
+        if "name" in th and not isinstance(th["name"], str):
+            raise _fail(path, f"{base}.name", "must be a string.")
+        for key, (unit, size) in _THRUSTER.items():
+            if key not in th:
+                raise _fail(path, f"{base}.{key}", "missing.")
+            value, source = _quantity(path, f"{base}.{key}", th[key], unit, size)
+            (positions if key == "position" else directions).append(value)
+            sources[f"{base}.{key}"] = source
+    kwargs["thruster_positions"] = tuple(positions)
+    kwargs["thruster_directions"] = tuple(directions)
+    kwargs["sources"] = sources
+    return kwargs
+
+
+def _file_field(argument: str) -> str:
+    for table, spec in _SCHEMA.items():
+        for key, (arg, *_rest) in spec.items():
+            if arg == argument:
+                return f"{table}.{key}"
+    if argument in ("thruster_positions", "thruster_directions"):
+        return "thruster." + argument.removeprefix("thruster_")[:-1]
+    return argument
+
+
+def builtin_vehicles() -> tuple[str, ...]:
+    """Names of the vehicle files shipped with sampledyn (for :func:`load_vehicle`)."""
+    folder = resources.files("sampledyn.models") / "vehicles"
+    return tuple(
+        sorted(p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml"))
+    )
+
+
+def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehicle:
+    """Load a vehicle file and build the :class:`Vehicle`.
+
+    Parameters
+    ----------
+    name_or_path : str or path
+        A built-in name (see :func:`builtin_vehicles`, e.g. ``"bluerov2_heavy"``) or
+        the path of a TOML vehicle file.
+    **overrides
+        Passed to :meth:`Vehicle.with_params`: parameters (``mass=14.0``,
+        ``X_u=10.0``) or options (``thruster_lag=True``, ``current=(0.2, 0, 0, 0, 0, 0)``,
+        ``cable_force=...``).
+
+    Returns
+    -------
+    Vehicle
+
+    Raises
+    ------
+    ValueError
+        For an unknown built-in name or a bad file; the message names the field.
+    FileNotFoundError
+        If a path does not exist.
+    """
+    text: str
+    where: Any
+    is_path = isinstance(name_or_path, os.PathLike) or (
+        isinstance(name_or_path, str)
+        and (name_or_path.endswith(".toml") or os.sep in name_or_path or "/" in name_or_path)
+    )
+    if is_path:
+        where = Path(name_or_path)
+        text = where.read_text(encoding="utf-8")
+    elif isinstance(name_or_path, str):
+        names = builtin_vehicles()
+        if name_or_path not in names:
+            raise ValueError(
+                f"unknown built-in vehicle {name_or_path!r}; available: {list(names)}, "
+                "or give the path of a .toml vehicle file."
+            )
+        res = resources.files("sampledyn.models") / "vehicles" / f"{name_or_path}.toml"
+        where = name_or_path
+        text = res.read_text(encoding="utf-8")
+    else:
+        raise TypeError(
+            f"`name_or_path` must be a str or a path, got {type(name_or_path).__name__}."
+        )
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"vehicle file {where}: not valid TOML: {exc}") from None
+    kwargs = _parse(where, data)
+    try:
+        vehicle = Vehicle(**kwargs)
+    except VehicleParameterError as exc:
+        raise _fail(where, _file_field(exc.argument), str(exc)) from None
+    return vehicle.with_params(**overrides) if overrides else vehicle

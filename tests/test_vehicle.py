@@ -1,0 +1,457 @@
+"""Tests of the 6-DoF vehicle in Fossen form, eqs. (5)-(7), its Jacobians and vehicle files."""
+
+from __future__ import annotations
+
+import warnings
+from importlib import resources
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from sampledyn.models import (
+    Vehicle,
+    builtin_vehicles,
+    load_vehicle,
+    rotation_jacobian,
+    rotation_jacobian_inverse,
+    thruster_allocation,
+)
+
+BUILTIN_TEXT = (resources.files("sampledyn.models") / "vehicles" / "bluerov2_heavy.toml").read_text(
+    encoding="utf-8"
+)
+
+OPTIONS = {
+    "plain": {},
+    "lag": {"thruster_lag": True},
+    "current_body": {"current": (0.3, -0.2, 0.1, 0.05, -0.02, 0.01)},
+    "current_ned": {"current": (0.3, -0.2, 0.1, 0.0, 0.0, 0.0), "current_frame": "ned"},
+    "cable": {"cable_force": (3.0, 1.0, -2.0, 0.1, 0.2, -0.3)},
+    "offset_cg": {"r_G": (0.01, -0.02, 0.03), "r_B": (0.02, 0.01, -0.05)},
+    "all": {
+        "thruster_lag": True,
+        "current": (0.1, 0.2, -0.1, 0.02, 0.01, -0.03),
+        "cable_force": (-2.0, 0.5, 1.0, 0.0, 0.1, 0.2),
+        "r_G": (0.01, 0.0, 0.02),
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def rov() -> Vehicle:
+    return load_vehicle("bluerov2_heavy")
+
+
+def random_states(model: Vehicle, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """States with |theta| < 60 deg, velocities of order 0.5, rpm within +-3000."""
+    rng = np.random.default_rng(seed)
+    eta = np.column_stack(
+        [
+            rng.normal(0.0, 5.0, (n, 3)),
+            rng.uniform(-1.0, 1.0, (n, 1)),
+            rng.uniform(-1.0, 1.0, (n, 1)),
+            rng.uniform(-np.pi, np.pi, (n, 1)),
+        ]
+    )
+    v = rng.normal(0.0, 0.5, (n, 6))
+    lag = rng.uniform(-3000.0, 3000.0, (n, model.nx - 12))
+    u = rng.uniform(-3000.0, 3000.0, (n, model.nu))
+    return np.column_stack([eta, v, lag]), u
+
+
+# ------------------------------------------------------------------ independent reference
+def _S(a: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def reference_f(model: Vehicle, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Eqs. (5)-(7) in plain NumPy from textbook formulas (Fossen 2011), one state.
+
+    Uses the velocity-independent C_RB parametrization (Fossen eq. 3.60), C_A of a
+    diagonal M_A (eq. 6.43 written out), restoring forces from rotating the weight and
+    buoyancy vectors, and thruster forces summed one by one with np.cross.
+    """
+    phi, theta, psi = x[3:6]
+    nu1, nu2 = x[6:9], x[9:12]
+    rx = np.array([[1, 0, 0], [0, np.cos(phi), -np.sin(phi)], [0, np.sin(phi), np.cos(phi)]])
+    ry = np.array(
+        [[np.cos(theta), 0, np.sin(theta)], [0, 1, 0], [-np.sin(theta), 0, np.cos(theta)]]
+    )
+    rz = np.array([[np.cos(psi), -np.sin(psi), 0], [np.sin(psi), np.cos(psi), 0], [0, 0, 1]])
+    R = rz @ ry @ rx
+    T = np.array(
+        [
+            [1, np.sin(phi) * np.tan(theta), np.cos(phi) * np.tan(theta)],
+            [0, np.cos(phi), -np.sin(phi)],
+            [0, np.sin(phi) / np.cos(theta), np.cos(phi) / np.cos(theta)],
+        ]
+    )
+    m = model.mass
+    rg = np.array(model.r_G)
+    rb = np.array(model.r_B)
+    Io = np.diag(model.inertia) - m * _S(rg) @ _S(rg)
+    MRB = np.block([[m * np.eye(3), -m * _S(rg)], [m * _S(rg), Io]])
+    MA = np.diag(model.added_mass)
+    M = MRB + MA
+    CRB = np.block([[m * _S(nu2), -m * _S(nu2) @ _S(rg)], [m * _S(rg) @ _S(nu2), -_S(Io @ nu2)]])
+    A11 = MA[:3, :3]
+    A22 = MA[3:, 3:]
+    CA = np.block([[np.zeros((3, 3)), -_S(A11 @ nu1)], [-_S(A11 @ nu1), -_S(A22 @ nu2)]])
+    v = x[6:12]
+    D = np.diag(np.array(model.linear_damping) + np.array(model.quadratic_damping) * np.abs(v))
+    W = m * model.g
+    B = model.rho * model.g * model.volume
+    fg = R.T @ np.array([0.0, 0.0, W])
+    fb = R.T @ np.array([0.0, 0.0, -B])
+    g = np.concatenate([fg + fb, np.cross(rg, fg) + np.cross(rb, fb)])
+    n = x[12:] if model.thruster_lag else u
+    tau = np.zeros(6)
+    omega = nu2
+    for i, (r_i, d_i) in enumerate(
+        zip(model.thruster_positions, model.thruster_directions, strict=True)
+    ):
+        r_i = np.array(r_i)
+        d_i = np.array(d_i)
+        va = (nu1 + np.cross(omega, r_i)) @ d_i
+        thrust = model.K1 * n[i] * abs(n[i]) - model.K2 * va * abs(n[i])
+        tau += np.concatenate([thrust * d_i, np.cross(r_i, thrust * d_i)])
+    tau_c = np.array(model.cable_force)
+    vdot = np.linalg.solve(M, -(CRB + CA) @ v - D @ v + g + tau + tau_c)
+    vc = np.array(model.current)
+    J = np.block([[R, np.zeros((3, 3))], [np.zeros((3, 3)), T]])
+    etadot = J @ (v + vc) if model.current_frame == "body" else J @ v + vc
+    ndot = (u - x[12:]) / model.lag_time_constant if model.thruster_lag else np.zeros(0)
+    return np.concatenate([etadot, vdot, ndot])
+
+
+def central_differences(model: Vehicle, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    jac = np.empty((model.nx, model.nx))
+    for j in range(model.nx):
+        step = 1e-6 * max(1.0, abs(x[j]))
+        e = np.zeros(model.nx)
+        e[j] = step
+        jac[:, j] = (model.f(0.0, x + e, u) - model.f(0.0, x - e, u)) / (2 * step)
+    return jac
+
+
+# ------------------------------------------------------------------------- the file
+def test_builtin_file_gives_published_numbers(rov: Vehicle) -> None:
+    assert "bluerov2_heavy" in builtin_vehicles()
+    p = rov.params
+    # von Benzon et al. 2022, Table A1
+    assert p["mass"] == 13.5
+    assert (p["Ix"], p["Iy"], p["Iz"]) == (0.26, 0.23, 0.37)
+    assert rov.added_mass == (6.36, 7.12, 18.68, 0.189, 0.135, 0.222)
+    assert rov.linear_damping == (13.7, 0.0, 33.0, 0.0, 0.8, 0.0)
+    assert rov.quadratic_damping == (141.0, 217.0, 190.0, 1.19, 0.47, 1.5)
+    assert rov.r_G == (0.0, 0.0, 0.0) and rov.r_B == (0.0, 0.0, -0.01)
+    assert p["volume"] == 0.0134 and p["rho"] == 1000.0 and p["g"] == 9.81
+    # T200 16 V data: 5.25 kgf at 3533 rpm
+    assert rov.n_thrusters == 8 and rov.nu == 8 and rov.nx == 12
+    assert p["n_max"] == 3533.0
+    assert p["K1"] == pytest.approx(5.25 * 9.80665 / 3533.0**2, rel=1e-4)
+    area = np.pi * 0.076**2 / 4
+    assert p["K2"] == pytest.approx(np.sqrt(1000.0 * area * p["K1"] / 2), rel=1e-4)
+    np.testing.assert_allclose(
+        np.diag(rov.mass_matrix), [19.86, 20.62, 32.18, 0.449, 0.365, 0.592], rtol=1e-12
+    )
+    np.testing.assert_allclose(rov.minv @ rov.mass_matrix, np.eye(6), atol=1e-12)
+    assert rov.weight == pytest.approx(13.5 * 9.81)
+    assert rov.buoyancy == pytest.approx(1000.0 * 9.81 * 0.0134)
+    assert all(s.strip() for s in rov.sources.values())
+    assert {"mass", "K1", "K2", "thruster[7].position"} <= set(rov.sources)
+
+
+def test_state_and_input_layout(rov: Vehicle) -> None:
+    assert rov.state_names[:6] == ("x", "y", "z", "phi", "theta", "psi")
+    assert rov.state_units[6:12] == ("m/s",) * 3 + ("rad/s",) * 3
+    assert rov.input_units == ("rpm",) * 8
+    np.testing.assert_array_equal(rov.default_x0, np.zeros(12))
+    lagged = rov.with_params(thruster_lag=True)
+    assert lagged.nx == 20 and lagged.state_names[12:] == tuple(f"n{i}" for i in range(1, 9))
+    np.testing.assert_array_equal(lagged.default_x0, np.zeros(20))
+
+
+def test_with_params_returns_new_model(rov: Vehicle) -> None:
+    changed = rov.with_params(X_u=20.0, Iz=0.5, mass=14.0)
+    assert changed.linear_damping[0] == 20.0 and changed.inertia[2] == 0.5
+    assert changed.mass == 14.0 and rov.mass == 13.5 and rov.linear_damping[0] == 13.7
+    assert changed.mass_matrix[0, 0] == pytest.approx(14.0 + 6.36)
+    assert changed != rov and rov.with_params() == rov
+    with pytest.raises(TypeError, match="X_uuu"):
+        rov.with_params(X_uuu=1.0)
+    with pytest.raises(TypeError, match="linear_damping"):
+        rov.with_params(linear_damping=(1.0,) * 6, X_u=2.0)
+
+
+# ---------------------------------------------------------------------- invariants
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, 6, elements=st.floats(-5.0, 5.0)))
+def test_coriolis_is_skew_symmetric(v: np.ndarray) -> None:
+    for model in (
+        load_vehicle("bluerov2_heavy"),
+        load_vehicle("bluerov2_heavy", r_G=(0.02, -0.01, 0.05)),
+    ):
+        C = model.coriolis(v)
+        np.testing.assert_allclose(C, -C.T, atol=1e-12)
+        # no power: v^T C(v) v = 0
+        assert abs(v @ C @ v) <= 1e-9 * (1.0 + v @ v)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.floats(-np.pi, np.pi),
+    st.floats(-1.45, 1.45),
+    st.floats(-np.pi, np.pi),
+)
+def test_rotation_jacobian_inverse(phi: float, theta: float, psi: float) -> None:
+    eta = np.array([1.0, 2.0, 3.0, phi, theta, psi])
+    J = rotation_jacobian(eta)
+    Jinv = rotation_jacobian_inverse(eta)
+    np.testing.assert_allclose(Jinv @ J, np.eye(6), atol=1e-9 / np.cos(theta) ** 2)
+    R = J[:3, :3]
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+
+
+def test_rotation_jacobian_is_vectorised() -> None:
+    rng = np.random.default_rng(3)
+    eta = rng.uniform(-1.0, 1.0, (7, 6))
+    batch = rotation_jacobian(eta)
+    assert batch.shape == (7, 6, 6)
+    for i in range(7):
+        np.testing.assert_array_equal(batch[i], rotation_jacobian(eta[i]))
+
+
+# ---------------------------------------------------------------- f and Jacobians
+@pytest.mark.parametrize("option", sorted(OPTIONS))
+def test_f_matches_independent_numpy_reference(option: str) -> None:
+    model = load_vehicle("bluerov2_heavy", **OPTIONS[option])
+    x, u = random_states(model, 20, seed=11)
+    f = model.f(0.0, x, u)
+    assert f.shape == (20, model.nx)
+    for i in range(20):
+        np.testing.assert_allclose(f[i], reference_f(model, x[i], u[i]), rtol=1e-10, atol=1e-10)
+    # a single state gives a single row
+    np.testing.assert_allclose(model.f(0.0, x[0], u[0]), f[0], rtol=0, atol=0)
+
+
+def test_resting_vehicle_sinks_slowly(rov: Vehicle) -> None:
+    # W - B = 0.98 N > 0 and CB above CG: sinks, no rotation at theta = phi = 0
+    f = rov.f(0.0, np.zeros(12), np.zeros(8))
+    np.testing.assert_allclose(f[:6], 0.0, atol=0)
+    assert f[8] == pytest.approx((rov.weight - rov.buoyancy) / rov.mass_matrix[2, 2])
+    np.testing.assert_allclose(f[[6, 7, 9, 10, 11]], 0.0, atol=1e-15)
+    # rolled: the righting moment opposes phi
+    tilted = rov.f(0.0, np.array([0, 0, 0, 0.2, 0, 0, 0, 0, 0, 0, 0, 0.0]), np.zeros(8))
+    assert tilted[9] < 0
+
+
+@pytest.mark.parametrize("option", sorted(OPTIONS))
+def test_jacobian_matches_central_differences(option: str) -> None:
+    model = load_vehicle("bluerov2_heavy", **OPTIONS[option])
+    x, u = random_states(model, 6, seed=5)
+    jac = model.jacobian(0.0, x, u)
+    assert jac.shape == (6, model.nx, model.nx)
+    for i in range(6):
+        fd = central_differences(model, x[i], u[i])
+        scale = np.abs(fd).max()
+        np.testing.assert_allclose(jac[i], fd, rtol=1e-6, atol=1e-6 * scale)
+
+
+def test_jacobian_blocks(rov: Vehicle) -> None:
+    x, u = random_states(rov, 4, seed=8)
+    jac = rov.jacobian(0.0, x, u)
+    np.testing.assert_allclose(rov.jac_eta_v(0.0, x, u), rov.J(x[:, :6]), rtol=1e-15, atol=1e-15)
+    np.testing.assert_array_equal(rov.jac_v_v(0.0, x, u), jac[:, 6:, 6:])
+    np.testing.assert_array_equal(rov.jac_eta_eta(0.0, x, u), jac[:, :6, :6])
+    # eq. (14): df_v/deta = M^-1 dg/deta, and g depends on phi and theta only
+    jve = rov.jac_v_eta(0.0, x, u)
+    np.testing.assert_array_equal(jve[:, :, [0, 1, 2, 5]], 0.0)
+    step = 1e-6
+    for i in range(4):
+        for k in (3, 4):
+            e = np.zeros(6)
+            e[k] = step
+            dg = (rov.restoring(x[i, :6] + e) - rov.restoring(x[i, :6] - e)) / (2 * step)
+            np.testing.assert_allclose(jve[i, :, k], rov.minv @ dg, rtol=1e-6, atol=1e-9)
+
+
+def test_thruster_term_of_the_velocity_jacobian(rov: Vehicle) -> None:
+    # eq. (16): the thrusters add -M^-1 K2 B diag(n) B^T to df_v/dv
+    x, u = random_states(rov, 3, seed=9)
+    with_thrust = rov.jac_v_v(0.0, x, u)
+    without = rov.jac_v_v(0.0, x, np.zeros_like(u))
+    B = rov.allocation
+    for i in range(3):
+        expected = -rov.K2 * rov.minv @ B @ np.diag(np.abs(u[i])) @ B.T
+        np.testing.assert_allclose(with_thrust[i] - without[i], expected, atol=1e-12)
+
+
+# ------------------------------------------------------------------ thrusters
+def test_allocation_columns_from_geometry(rov: Vehicle) -> None:
+    B = rov.allocation
+    assert B.shape == (6, 8)
+    for i, (r, d) in enumerate(zip(rov.thruster_positions, rov.thruster_directions, strict=True)):
+        np.testing.assert_allclose(B[:3, i], d, atol=0)
+        np.testing.assert_allclose(B[3:, i], np.cross(r, d), atol=1e-15)
+    np.testing.assert_allclose(
+        B, thruster_allocation(rov.thruster_positions, rov.thruster_directions)
+    )
+
+
+def test_pure_surge_and_heave_combinations(rov: Vehicle) -> None:
+    B = rov.allocation
+    surge = B @ np.array([1.0, 1.0, -1.0, -1.0, 0.0, 0.0, 0.0, 0.0])
+    assert surge[0] == pytest.approx(4 / np.sqrt(2))
+    np.testing.assert_allclose(surge[[1, 2, 3, 5]], 0.0, atol=1e-15)
+    # the horizontal thrusters sit 8.5 cm below the origin: surge thrust pitches up
+    assert surge[4] == pytest.approx(4 / np.sqrt(2) * 0.085)
+    heave = B @ np.array([0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0])
+    np.testing.assert_allclose(heave, [0, 0, -4, 0, 0, 0], atol=1e-15)
+    yaw = B @ np.array([-1.0, 1.0, 1.0, -1.0, 0, 0, 0, 0])
+    np.testing.assert_allclose(yaw[:5], 0.0, atol=1e-15)
+    assert yaw[5] == pytest.approx(4 * (0.156 + 0.111) / np.sqrt(2))
+
+
+def test_thrust_law(rov: Vehicle) -> None:
+    n = np.full(8, 3533.0)
+    at_rest = rov.thrust(np.zeros(12), n)
+    np.testing.assert_allclose(at_rest, rov.K1 * 3533.0**2)
+    assert at_rest[0] == pytest.approx(51.48, rel=1e-3)  # 5.25 kgf
+    # moving along thruster 1's axis at 0.5 m/s lowers its thrust by K2 * 0.5 * n
+    x = np.zeros(12)
+    x[6:9] = 0.5 * np.array(rov.thruster_directions[0])
+    moving = rov.thrust(x, n)
+    assert moving[0] == pytest.approx(at_rest[0] - rov.K2 * 0.5 * 3533.0)
+    assert moving[4] == pytest.approx(at_rest[4])
+
+
+def test_thruster_lag_states(rov: Vehicle) -> None:
+    lagged = rov.with_params(thruster_lag=True, T_n=0.2)
+    x = np.zeros(20)
+    x[12:] = 1000.0
+    u = np.full(8, 3000.0)
+    f = lagged.f(0.0, x, u)
+    np.testing.assert_allclose(f[12:], (3000.0 - 1000.0) / 0.2)
+    # the thrust comes from the lagged rpm, not from the reference
+    np.testing.assert_allclose(f[6:12], rov.f(0.0, x[:12], np.full(8, 1000.0))[6:12], atol=1e-14)
+
+
+# ------------------------------------------------------------------- estimation
+@pytest.mark.parametrize("option", ["plain", "lag", "all"])
+def test_regressors_reproduce_f(option: str) -> None:
+    model = load_vehicle("bluerov2_heavy", **OPTIONS[option])
+    x, u = random_states(model, 30, seed=21)
+    lf = model.regressors(0.0, x, u)
+    assert lf.names[:2] == ("X_u", "Y_v") and lf.names[6] == "X_uu" and len(lf.names) == 12
+    assert lf.phi.shape == (30, model.nx, 12) and lf.f0.shape == (30, model.nx)
+    theta = np.array([model.params[name] for name in lf.names])
+    np.testing.assert_allclose(lf.phi @ theta + lf.f0, model.f(0.0, x, u), rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(lf.phi[:, :6], 0.0)
+    # changing theta in the linear form equals changing the model
+    theta2 = theta * 1.5 + 1.0
+    changed = model.with_params(**dict(zip(lf.names, theta2, strict=True)))
+    np.testing.assert_allclose(
+        lf.phi @ theta2 + lf.f0, changed.f(0.0, x, u), rtol=1e-12, atol=1e-12
+    )
+
+
+# ----------------------------------------------------------------- pitch singularity
+def test_pitch_at_90_degrees_raises(rov: Vehicle) -> None:
+    x = np.zeros((3, 12))
+    x[1, 4] = np.pi / 2
+    with pytest.raises(ValueError, match="theta"):
+        rov.f(0.0, x, np.zeros((3, 8)))
+    with pytest.raises(ValueError, match="singular"):
+        rov.jacobian(0.0, x, np.zeros((3, 8)))
+    x[1, 4] = -np.pi / 2 + 1e-3
+    with pytest.raises(ValueError, match="theta"):
+        rov.f(0.0, x, np.zeros((3, 8)))
+    with pytest.raises(ValueError, match="theta"):
+        rov.J(x[:, :6])
+
+
+def test_pitch_past_limit_warns(rov: Vehicle) -> None:
+    x = np.zeros((2, 12))
+    x[1, 4] = np.radians(85.0)
+    with pytest.warns(UserWarning, match="pitch_limit_deg"):
+        rov.f(0.0, x, np.zeros((2, 8)))
+    x[1, 4] = np.radians(40.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rov.f(0.0, x, np.zeros((2, 8)))
+    strict = rov.with_params(pitch_limit_deg=30.0)
+    with pytest.warns(UserWarning, match="pitch"):
+        strict.jacobian(0.0, x, np.zeros((2, 8)))
+
+
+# ------------------------------------------------------------------- bad inputs
+def write(tmp_path, text: str):
+    path = tmp_path / "vehicle.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_user_file_by_path(tmp_path) -> None:
+    path = write(tmp_path, BUILTIN_TEXT.replace("value = 13.5", "value = 15.0"))
+    model = load_vehicle(path, thruster_lag=True)
+    assert model.mass == 15.0 and model.thruster_lag
+    assert load_vehicle(str(path)).mass == 15.0
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "field"),
+    [
+        # missing field
+        ('mass = { value = 13.5, unit = "kg", source = "vB22 Table A1" }\n', "", "rigid_body.mass"),
+        # negative mass
+        ("value = 13.5,", "value = -13.5,", "rigid_body.mass"),
+        # unknown key
+        (
+            "[rigid_body]\n",
+            '[rigid_body]\nmasss = { value = 1.0, unit = "kg", source = "x" }\n',
+            "rigid_body.masss",
+        ),
+        # M not positive definite: a negative added mass larger than the mass
+        ("value = [6.36, 7.12,", "value = [-30.0, 7.12,", "hydrodynamics.added_mass"),
+        # wrong unit
+        ('unit = "kg/m^3"', 'unit = "g/cm^3"', "environment.rho"),
+        # missing unit
+        (', unit = "m^3", source', ", source", "rigid_body.volume"),
+        # direction not a unit vector
+        ("value = [0.0, 0.0, -1.0]", "value = [0.0, 0.0, -2.0]", "thruster.direction"),
+        # negative damping
+        ("value = [13.7,", "value = [-13.7,", "hydrodynamics.linear_damping"),
+        # unknown top-level table
+        ("[environment]\n", "[environmnt]\n", "environmnt"),
+    ],
+)
+def test_bad_vehicle_file_names_the_field(tmp_path, old: str, new: str, field: str) -> None:
+    assert old in BUILTIN_TEXT
+    path = write(tmp_path, BUILTIN_TEXT.replace(old, new, 1))
+    with pytest.raises(ValueError, match=f"`{field}"):
+        load_vehicle(path)
+
+
+def test_unknown_builtin_name() -> None:
+    with pytest.raises(ValueError, match="bluerov2_heavy"):
+        load_vehicle("bluerov3")
+
+
+def test_bad_constructor_arguments_name_the_argument(rov: Vehicle) -> None:
+    with pytest.raises(ValueError, match="`mass`"):
+        rov.with_params(mass=-1.0)
+    with pytest.raises(ValueError, match="`inertia`"):
+        rov.with_params(Ix=0.0)
+    with pytest.raises(ValueError, match="`current_frame`"):
+        rov.with_params(current_frame="ecef")
+    with pytest.raises(ValueError, match="`thruster_directions"):
+        rov.with_params(thruster_directions=((1.0, 1.0, 0.0),) * 8)
+    with pytest.raises(ValueError, match="`x`"):
+        rov.f(0.0, np.zeros((2, 11)), np.zeros((2, 8)))
+    with pytest.raises(ValueError, match="`u`"):
+        rov.f(0.0, np.zeros((2, 12)), np.zeros((2, 7)))
