@@ -94,6 +94,8 @@ def _fig7(args: argparse.Namespace) -> int:
         kwargs["methods"] = tuple(m.strip() for m in args.methods.split(",") if m.strip())
     if args.vehicle:
         kwargs["vehicle"] = args.vehicle
+    if args.open_loop:
+        kwargs["attitude_hold"] = False
     study = ROVStudy(**kwargs)
     result = run_rov_study(study, progress=not args.no_progress)
     summary = summarize(result["rows"])
@@ -209,6 +211,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         choices=["rms", "max", "l2_over_n"],
         help="norm shown (fig2/3: rms; fig7: l2_over_n); all go to the CSV",
+    )
+    rep.add_argument(
+        "--open-loop",
+        action="store_true",
+        help="fig7: drive the thrusters with the Fig. 6 rpm only, no roll-pitch hold "
+        "(the BlueROV2 Heavy then pitches over)",
     )
     rep.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     rep.set_defaults(func=_cmd_reproduce)

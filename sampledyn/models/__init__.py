@@ -1,5 +1,6 @@
 """Continuous-time vehicle models: ``x' = f(t, x, u)`` with analytic Jacobians."""
 
+from ._attitude_hold import AttitudeHold as AttitudeHold
 from ._auv import AUVLike as AUVLike
 from ._base import CompiledModel as CompiledModel
 from ._base import LinearForm as LinearForm
@@ -13,6 +14,7 @@ from ._vehicle_file import load_vehicle as load_vehicle
 
 __all__ = [
     "AUVLike",
+    "AttitudeHold",
     "CompiledModel",
     "LinearForm",
     "Model",

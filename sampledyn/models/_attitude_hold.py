@@ -1,0 +1,166 @@
+"""A vehicle with a roll-pitch attitude hold on its vertical thrusters.
+
+Not in the paper: its Fig. 6 input is open loop. On a vehicle with a small righting
+arm (the BlueROV2 Heavy has BG = 1 cm, a maximum righting moment W BG = 1.3 N m) the
+Fig. 6 forward thrust, applied 8.5 cm below the centre of gravity, pitches the vehicle
+over, and the vertical thrusters' sinusoids drive roll near its natural frequency. A
+PD hold on roll and pitch keeps the attitude small, as in the paper's run, while the
+Fig. 6 rpm stay the reference of every thruster:
+
+    n = n_ref + Delta n(x),   Delta n = P (-(k_p (phi, theta) + k_d (p, q))) / (2 K1 n_lin)
+
+P (N_thr x 2) maps desired roll and pitch moments (N m) to vertical thrust increments
+(minimum norm, no net heave); the division converts thrust to rpm about the operating
+point n_lin. The applied rpm ``n`` is what the thrusters turn at and what a log would
+record; the model's input is the reference ``n_ref``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from ._base import CompiledModel
+from ._vehicle_kernels import vehicle_rhs
+
+__all__ = ["AttitudeHold"]
+
+
+@njit(cache=True)
+def _applied(x, u, p, n_out):  # pragma: no cover - compiled
+    nt = n_out.shape[0]
+    phi, theta, pr, qr = x[3], x[4], x[9], x[10]
+    for i in range(nt):
+        g = p[1 + 4 * i : 5 + 4 * i]
+        n_out[i] = u[i] + g[0] * phi + g[1] * theta + g[2] * pr + g[3] * qr
+
+
+@njit(cache=True)
+def _hold_rhs(t, x, u, p, out):  # pragma: no cover - compiled
+    nt = int(p[0])
+    n = np.empty(nt)
+    _applied(x, u, p, n)
+    vehicle_rhs(t, x, n, p[1 + 4 * nt :], out)
+
+
+@njit(cache=True)
+def _hold_switch(t, x, u, p, out):  # pragma: no cover - compiled
+    # |v| v damping and the applied rpm in n |n|.
+    nt = int(p[0])
+    for k in range(6):
+        out[k] = x[6 + k]
+    n = np.empty(nt)
+    _applied(x, u, p, n)
+    for i in range(nt):
+        out[6 + i] = n[i]
+
+
+@dataclass(frozen=True)
+class AttitudeHold(CompiledModel):
+    """``vehicle`` with a roll-pitch PD hold on its vertical thrusters.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The open-loop vehicle (without the thruster-lag option).
+    kp : float
+        Moment per radian of roll or pitch (N m/rad). Default 20: the loop's natural
+        frequency is then about 1 Hz, above the Fig. 6 sinusoids (0.15-0.3 Hz).
+    kd : float
+        Moment per rad/s of roll or pitch rate (N m s/rad). Default 4 (damping ratio
+        about 0.7 on the BlueROV2 Heavy's roll inertia).
+    n_lin_frac : float
+        Operating point n_lin of the thrust-to-rpm conversion, as a fraction of n_max.
+    """
+
+    vehicle: Any
+    kp: float = 20.0
+    kd: float = 4.0
+    n_lin_frac: float = 0.3
+    gains: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        v = self.vehicle
+        if getattr(v, "thruster_lag", False):
+            raise ValueError("`vehicle` must not use the thruster-lag option here.")
+        for name in ("kp", "kd", "n_lin_frac"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"`{name}` must be > 0, got {getattr(self, name)}.")
+        d = np.asarray(v.thruster_directions, dtype=float)
+        vertical = np.abs(d[:, 2]) > np.hypot(d[:, 0], d[:, 1])
+        if vertical.sum() < 2:
+            raise ValueError("the attitude hold needs at least 2 vertical thrusters.")
+        alloc = np.asarray(v.allocation)  # rows: X, Y, Z, K, M, N
+        sub = alloc[3:5][:, vertical]  # roll and pitch moment per unit thrust
+        rows = np.vstack([alloc[2][vertical], sub])  # keep heave out of the correction
+        pinv = np.linalg.pinv(rows)[:, 1:]  # (n_vertical, 2): moments -> thrusts
+        p_map = np.zeros((d.shape[0], 2))
+        p_map[vertical] = pinv
+        scale = 1.0 / (2.0 * v.K1 * self.n_lin_frac * v.n_max)  # rpm per N
+        gains = np.zeros((d.shape[0], 4))
+        gains[:, 0:2] = -self.kp * p_map * scale  # roll, pitch angle
+        gains[:, 2:4] = -self.kd * p_map * scale  # roll, pitch rate
+        object.__setattr__(self, "gains", gains)
+
+    # The model protocol, delegating names and sizes to the vehicle.
+    @property
+    def nx(self) -> int:  # type: ignore[override]
+        return int(self.vehicle.nx)
+
+    @property
+    def nu(self) -> int:  # type: ignore[override]
+        return int(self.vehicle.nu)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:  # type: ignore[override]
+        return tuple(self.vehicle.state_names)
+
+    @property
+    def state_units(self) -> tuple[str, ...]:  # type: ignore[override]
+        return tuple(self.vehicle.state_units)
+
+    @property
+    def input_names(self) -> tuple[str, ...]:  # type: ignore[override]
+        return tuple(f"{n}_ref" for n in self.vehicle.input_names)
+
+    @property
+    def input_units(self) -> tuple[str, ...]:  # type: ignore[override]
+        return tuple(self.vehicle.input_units)
+
+    @property
+    def name(self) -> str:
+        return f"{self.vehicle.name} + attitude hold"
+
+    def _p(self) -> np.ndarray:
+        nt = self.gains.shape[0]
+        return np.concatenate([[float(nt)], self.gains.ravel(), self.vehicle.kernel()[1]])
+
+    def kernel(self) -> tuple[Any, np.ndarray]:
+        return _hold_rhs, self._p()
+
+    def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
+        """Zero crossings of the velocities and of the applied rpm."""
+        return _hold_switch, self._p(), np.zeros(6 + self.gains.shape[0], dtype=bool)
+
+    def applied_rpm(self, x: Any, u_ref: Any) -> np.ndarray:
+        """Applied rpm n = n_ref + Delta n(x), shape (N, N_thr)."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        att = x[:, [3, 4, 9, 10]]
+        return np.asarray(u_ref, dtype=float) + att @ self.gains.T
+
+    def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """df/dx by central differences (step 1e-6 relative); the open-loop vehicle
+        has the analytic Jacobian."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        out = np.empty((x.shape[0], self.nx, self.nx))
+        for j in range(self.nx):
+            step = 1e-6 * np.maximum(1.0, np.abs(x[:, j]))
+            xp, xm = x.copy(), x.copy()
+            xp[:, j] += step
+            xm[:, j] -= step
+            out[:, :, j] = (self.f(t, xp, u) - self.f(t, xm, u)) / (2 * step[:, None])
+        return out
