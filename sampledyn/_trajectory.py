@@ -154,6 +154,39 @@ class Trajectory:
         """A copy with some fields changed (``dataclasses.replace``)."""
         return replace(self, **changes)  # type: ignore[arg-type]
 
+    def subsample(self, k: int) -> Trajectory:
+        """Every k-th sample: the same data at the period k h.
+
+        Exact samples stay exact (they are values of the same continuous path). The
+        certificate of an interval of the new grid is the sum of the certificates of
+        the k intervals it spans (a first-order bound). A tail shorter than k
+        intervals is dropped.
+        """
+        if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
+            raise ValueError(f"`k` must be a positive int, got {k!r}.")
+        n_int = (self.n_samples - 1) // k
+        if n_int < 1:
+            raise ValueError(f"k={k} leaves no interval of {self.n_samples - 1}.")
+        sl = slice(0, n_int * k + 1, k)
+        cert = None
+        if self.certificate is not None:
+            c = self.certificate
+            cert = Certificate(
+                per_interval=c.per_interval[: n_int * k].reshape(n_int, k).sum(axis=1),
+                scale=c.scale,
+                steps=c.steps[: n_int * k].reshape(n_int, k).sum(axis=1),
+                rtol=c.rtol,
+            )
+        return replace(
+            self,
+            t=self.t[sl],
+            x=self.x[sl],
+            u=self.u[sl],
+            h=self.h * k,
+            clean=self.clean.subsample(k) if self.clean is not None else None,
+            certificate=cert,
+        )
+
     def check_finite(self, argument: str = "measured") -> None:
         """Raise ``ValueError`` naming the first sample that holds NaN or inf."""
         for name, a in (("x", self.x), ("u", self.u), ("t", self.t)):

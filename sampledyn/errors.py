@@ -8,7 +8,7 @@ import numpy as np
 
 from ._trajectory import Trajectory
 
-__all__ = ["ERROR_NORMS", "error_norm", "local_errors"]
+__all__ = ["ERROR_NORMS", "error_norm", "error_norms", "local_errors"]
 
 ERROR_NORMS = ("rms", "max", "l2_over_n", "l2", "mean")
 
@@ -52,6 +52,19 @@ def error_norm(
     where : ndarray of bool, shape (N,), optional
         Only samples where this is True count (e.g. away from input jumps).
     """
+    return error_norms(errors, t, (kind,), after, components, where)[kind]
+
+
+def error_norms(
+    errors: np.ndarray,
+    t: np.ndarray,
+    kinds: tuple[str, ...] = ERROR_NORMS,
+    after: float | None = None,
+    components: Any = None,
+    where: np.ndarray | None = None,
+) -> dict[str, float]:
+    """Several norms of :func:`error_norm` at once (the per-sample norms are computed
+    once); returns kind -> value."""
     e = np.asarray(errors, dtype=float)
     t = np.asarray(t, dtype=float)
     if e.ndim == 1:
@@ -62,9 +75,11 @@ def error_norm(
         )
     if components is not None:
         e = e[:, components]
-    if kind not in ERROR_NORMS:
-        raise ValueError(f"unknown norm kind {kind!r}; valid: {', '.join(ERROR_NORMS)}.")
-    keep = ~np.isnan(e).any(axis=1)
+    for kind in kinds:
+        if kind not in ERROR_NORMS:
+            raise ValueError(f"unknown norm kind {kind!r}; valid: {', '.join(ERROR_NORMS)}.")
+    sq = np.einsum("ij,ij->i", e, e)  # NaN where any component is NaN
+    keep = ~np.isnan(sq)
     if where is not None:
         where = np.asarray(where, dtype=bool)
         if where.shape != keep.shape:
@@ -72,18 +87,23 @@ def error_norm(
         keep &= where
     if after is not None:
         keep &= t >= after - 1e-9 * max(1.0, abs(after))
-    per = np.sqrt((e[keep] ** 2).sum(axis=1))
-    if per.size == 0:
+    sq = sq[keep]
+    if sq.size == 0:
         raise ValueError(
             f"no samples with a prediction at t >= after={after}; "
             "shorten `after` or lengthen the run."
         )
-    if kind == "rms":
-        return float(np.sqrt(np.mean(per**2)))
-    if kind == "max":
-        return float(per.max())
-    if kind == "l2_over_n":
-        return float(np.sqrt(np.sum(per**2)) / per.size)
-    if kind == "l2":
-        return float(np.sqrt(np.sum(per**2)))
-    return float(per.mean())
+    total = float(sq.sum())
+    out: dict[str, float] = {}
+    for kind in kinds:
+        if kind == "rms":
+            out[kind] = float(np.sqrt(total / sq.size))
+        elif kind == "max":
+            out[kind] = float(np.sqrt(sq.max()))
+        elif kind == "l2_over_n":
+            out[kind] = float(np.sqrt(total) / sq.size)
+        elif kind == "l2":
+            out[kind] = float(np.sqrt(total))
+        else:
+            out[kind] = float(np.sqrt(sq).mean())
+    return out

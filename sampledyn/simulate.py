@@ -18,10 +18,11 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from ._trajectory import Certificate, Trajectory
+from .models._base import RHS_SIG, RHS_TYPE, RO1, RO2, readonly
 
 __all__ = ["IntegrationError", "simulate"]
 
@@ -68,7 +69,7 @@ def _dop_stages(rhs, p, t, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytm
         ynew[j] = y[j] + dt * acc
 
 
-@njit(cache=True)
+@njit(RHS_SIG, cache=True)
 def _index_switch(t, x, u, sp, out):  # pragma: no cover - compiled
     """Switching values picked from the state and input: sp = [ns, i..., nu, j...]."""
     ns = int(sp[0])
@@ -122,7 +123,16 @@ def _crossing_root(
     return c
 
 
-@njit(cache=True)
+_F = types.float64
+_A2 = types.float64[:, ::1]
+_B1 = types.Array(types.boolean, 1, "C", readonly=True)
+_INTEGRATE_SIG = types.Tuple((types.int64, _F))(
+    RHS_TYPE, RO1, RO1, RO1, RO2, RO1, RO2, RO2, RO2, _F, _F, types.boolean, types.int64,
+    types.int64, _F, RHS_TYPE, RO1, _B1, _A2, types.int64[::1], _A2,
+)  # fmt: skip
+
+
+@njit(_INTEGRATE_SIG, cache=True)
 def _integrate(
     rhs,
     p,
@@ -303,6 +313,12 @@ def _integrate(
     return 0, dt
 
 
+def _readonly_bool(a: Any) -> np.ndarray:
+    a = np.array(a, dtype=np.bool_, copy=True)
+    a.setflags(write=False)
+    return a
+
+
 def switching(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
     """The model's switching function: values whose zero crossings are points where f
     is not smooth (``|v| v``, ``n |n|``).
@@ -420,14 +436,14 @@ def simulate(
         for a, b in zip(chunks[:-1], chunks[1:], strict=True):
             status, dt = _integrate(
                 rhs,
-                p,
-                t,
-                x0,
-                spec.hold,
-                spec.offset,
-                spec.amp,
-                spec.freq_hz,
-                spec.phase_rad,
+                readonly(p),
+                readonly(t),
+                readonly(x0),
+                readonly(spec.hold),
+                readonly(spec.offset),
+                readonly(spec.amp),
+                readonly(spec.freq_hz),
+                readonly(spec.phase_rad),
                 float(rtol),
                 float(atol),
                 bool(certify),
@@ -435,8 +451,8 @@ def simulate(
                 int(b),
                 dt,
                 sw,
-                sp,
-                sw_input_only,
+                readonly(sp),
+                _readonly_bool(sw_input_only),
                 X,
                 steps,
                 diff,

@@ -10,12 +10,14 @@ t >= after, separately for positions (eta) and rates (v).
 from __future__ import annotations
 
 import math
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..errors import error_norm, local_errors
+from ..errors import error_norms, local_errors
 from ..methods import AdamsBashforth, ab_filter, get_method
 from ..noise import add_noise
 from ..signals import fig6_thrusters
@@ -119,72 +121,148 @@ def _cell_rows(
             x_hat = method.predict(rk_model or model, data, signal)
         err = local_errors(x_hat, measured)
         row: dict[str, Any] = {"method": method.name}
-        for kind in NORMS:
-            row[f"pos_{kind}"] = error_norm(err, measured.t, kind, after, slice(0, n_eta))
-            row[f"vel_{kind}"] = error_norm(err, measured.t, kind, after, slice(n_eta, 2 * n_eta))
+        for q, comp in (("pos", slice(0, n_eta)), ("vel", slice(n_eta, 2 * n_eta))):
+            for kind, value in error_norms(err, measured.t, NORMS, after, comp).items():
+                row[f"{q}_{kind}"] = value
         rows.append(row)
     return rows
 
 
-def run_rov_study(study: ROVStudy = ROVStudy(), *, progress: bool = False) -> dict[str, Any]:
+# Data shared with forked worker processes (set before the pool starts).
+_SHARED: dict[str, Any] = {}
+
+
+def _run_cells(task: tuple[int, tuple[float, float], tuple[int, ...]]) -> list[dict[str, Any]]:
+    """Rows of the cells (h index, noise pair, seeds); runs in a worker or in-process."""
+    hi, (eta_pct, v_pct), seeds = task
+    d = _SHARED
+    study: ROVStudy = d["study"]
+    traj = d["trajs"][hi]
+    rows = []
+    for k in seeds:
+        seq = np.random.SeedSequence([study.base_seed, k])
+        measured = add_noise(traj, eta_pct, v_pct, seq, distribution=study.distribution)
+        cell = _cell_rows(
+            d["model"],
+            measured,
+            study.methods,
+            study.after,
+            rk_model=d["sim_model"],
+            rk_u=d["u_ref"][hi],
+            signal=d["stage_signal"],
+        )
+        h = study.h_values[hi]
+        rows += [{"h": h, "eta_pct": eta_pct, "v_pct": v_pct, "seed": k, **r} for r in cell]
+    return rows
+
+
+def _certify_task(_: Any = None) -> Any:
+    """The certified run (same samples, bit for bit, plus the certificate)."""
+    d = _SHARED
+    return simulate(d["sim_model"], d["signal"], T=d["study"].T, h=d["h_min"]).certificate
+
+
+def run_rov_study(
+    study: ROVStudy = ROVStudy(), *, progress: bool = False, workers: int = 2
+) -> dict[str, Any]:
     """Run the Fig. 7 study.
+
+    The exact samples are simulated once at the smallest h (the Fig. 6 input is
+    continuous in time, so the samples at a multiple of it are a subsample). With
+    ``workers`` > 1 the cells run on forked worker processes, and the accuracy
+    certificate (a second, certified run of the same samples) is computed by one of
+    them meanwhile.
 
     Returns
     -------
     dict with ``rows`` (one dict per h, noise pair, seed and method, with the position
     and velocity norms ``pos_l2_over_n``, ``pos_rms``, ``vel_l2_over_n``, ``vel_rms``),
-    ``certificates`` (h -> max scaled per-interval flow error of the exact samples)
-    and ``motion`` (h -> a few statistics of the forced motion).
+    ``certificates`` (h -> max scaled per-interval flow error of the exact samples),
+    ``motion`` (h -> a few statistics of the forced motion) and ``model``.
     """
     from ..models import AttitudeHold, load_vehicle
 
+    if not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"`workers` must be a positive int, got {workers!r}.")
     model = fig7_vehicle(load_vehicle(study.vehicle), study.buoyancy_pct)
     signal = fig6_thrusters(model)
     sim_model = AttitudeHold(model, study.kp, study.kd) if study.attitude_hold else model
-    cells = [
-        (h, pair, k)
-        for h in study.h_values
-        for pair in study.noise_pairs
-        for k in range(1 if pair == (0, 0) else study.seeds)
-    ]
+    h_min = min(study.h_values)
+    ratios = [h / h_min for h in study.h_values]
+    if not all(abs(r - round(r)) < 1e-9 for r in ratios):
+        raise ValueError(f"every h must be a multiple of the smallest, got {study.h_values}.")
+    parallel = workers > 1 and "fork" in multiprocessing.get_all_start_methods()
+    shared = simulate(sim_model, signal, T=study.T, h=h_min, certify=not parallel)
+    trajs, u_ref, motion = [], [], {}
+    for h, ratio in zip(study.h_values, ratios, strict=True):
+        exact = shared.subsample(int(round(ratio)))
+        motion[h] = motion_summary(exact)
+        # What a log records: the rpm the thrusters actually turn at.
+        applied = sim_model.applied_rpm(exact.x, exact.u) if study.attitude_hold else exact.u
+        trajs.append(exact.replace(u=applied, input_names=model.input_names))
+        u_ref.append(exact.u)
+    _SHARED.update(
+        study=study, model=model, sim_model=sim_model, signal=signal, h_min=h_min,
+        trajs=trajs, u_ref=u_ref, stage_signal=_MemoSignal(signal),
+    )  # fmt: skip
+    # One task per (h, noise pair), split in two seed halves to balance the workers.
+    tasks = []
+    for hi in range(len(study.h_values)):
+        for pair in study.noise_pairs:
+            seeds = tuple(range(1 if pair == (0, 0) else study.seeds))
+            for part in (seeds[::2], seeds[1::2]):
+                if part:
+                    tasks.append((hi, pair, part))
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(cells), desc="Fig. 7 cells", unit="cell")
+        bar = tqdm(total=len(tasks), desc="Fig. 7 cells", unit="task")
     rows: list[dict[str, Any]] = []
-    certificates: dict[float, float] = {}
-    motion: dict[float, dict[str, float]] = {}
+    cert = shared.certificate
     try:
-        for h in study.h_values:
-            exact = simulate(sim_model, signal, T=study.T, h=h, progress=False)
-            certificates[h] = exact.certificate.max_error if exact.certificate else math.nan
-            motion[h] = motion_summary(exact)
-            # What a log records: the rpm the thrusters actually turn at.
-            applied = sim_model.applied_rpm(exact.x, exact.u) if study.attitude_hold else exact.u
-            traj = exact.replace(u=applied, input_names=model.input_names)
-            for eta_pct, v_pct in study.noise_pairs:
-                n_seeds = 1 if (eta_pct, v_pct) == (0, 0) else study.seeds
-                for k in range(n_seeds):
-                    seq = np.random.SeedSequence([study.base_seed, k])
-                    measured = add_noise(traj, eta_pct, v_pct, seq, distribution=study.distribution)
-                    cell = _cell_rows(
-                        model,
-                        measured,
-                        study.methods,
-                        study.after,
-                        rk_model=sim_model,
-                        rk_u=exact.u,
-                        signal=signal,
-                    )
-                    for r in cell:
-                        rows.append({"h": h, "eta_pct": eta_pct, "v_pct": v_pct, "seed": k, **r})
+        if parallel:
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+                cert_future = pool.submit(_certify_task)
+                for result in pool.map(_run_cells, tasks):
+                    rows += result
                     if bar is not None:
                         bar.update(1)
+                cert = cert_future.result()
+        else:
+            for task in tasks:
+                rows += _run_cells(task)
+                if bar is not None:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()
+        _SHARED.clear()
+    certificates = {}
+    for h, ratio in zip(study.h_values, ratios, strict=True):
+        k = int(round(ratio))
+        certificates[h] = shared.replace(certificate=cert).subsample(k).certificate.max_error
     return {"rows": rows, "certificates": certificates, "motion": motion, "model": sim_model}
+
+
+class _MemoSignal:
+    """A signal whose stage inputs are computed once per grid: every seed of a cell
+    asks for the same ``intersample(t, tau)``."""
+
+    def __init__(self, signal: Any) -> None:
+        self._signal = signal
+        self.nu = signal.nu
+        self._cache: dict[tuple[int, float, float, float], np.ndarray] = {}
+
+    def __call__(self, t: Any) -> np.ndarray:
+        return self._signal(t)
+
+    def intersample(self, t_start: np.ndarray, tau: float) -> np.ndarray:
+        key = (t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
+        if key not in self._cache:
+            self._cache[key] = self._signal.intersample(t_start, tau)
+        return self._cache[key]
 
 
 def motion_summary(traj: Any) -> dict[str, float]:

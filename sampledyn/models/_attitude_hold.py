@@ -23,33 +23,38 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ._base import CompiledModel
+from ._base import RHS_SIG, CompiledModel
 from ._vehicle_kernels import vehicle_rhs
 
 __all__ = ["AttitudeHold"]
 
 
+# Parameter layout: the vehicle's own parameters first (its kernel reads them by
+# fixed index and ignores the rest), then the N_thr x 4 gains, then N_thr and the
+# offset of the gains.
+
+
 @njit(cache=True)
 def _applied(x, u, p, n_out):  # pragma: no cover - compiled
-    nt = n_out.shape[0]
+    nt = int(p[-2])
+    off = int(p[-1])
     phi, theta, pr, qr = x[3], x[4], x[9], x[10]
     for i in range(nt):
-        g = p[1 + 4 * i : 5 + 4 * i]
-        n_out[i] = u[i] + g[0] * phi + g[1] * theta + g[2] * pr + g[3] * qr
+        k = off + 4 * i
+        n_out[i] = u[i] + p[k] * phi + p[k + 1] * theta + p[k + 2] * pr + p[k + 3] * qr
 
 
-@njit(cache=True)
+@njit(RHS_SIG, cache=True)
 def _hold_rhs(t, x, u, p, out):  # pragma: no cover - compiled
-    nt = int(p[0])
-    n = np.empty(nt)
+    n = np.empty(int(p[-2]))
     _applied(x, u, p, n)
-    vehicle_rhs(t, x, n, p[1 + 4 * nt :], out)
+    vehicle_rhs(t, x, n, p, out)
 
 
-@njit(cache=True)
+@njit(RHS_SIG, cache=True)
 def _hold_switch(t, x, u, p, out):  # pragma: no cover - compiled
     # |v| v damping and the applied rpm in n |n|.
-    nt = int(p[0])
+    nt = int(p[-2])
     for k in range(6):
         out[k] = x[6 + k]
     n = np.empty(nt)
@@ -135,8 +140,9 @@ class AttitudeHold(CompiledModel):
         return f"{self.vehicle.name} + attitude hold"
 
     def _p(self) -> np.ndarray:
+        pv = np.asarray(self.vehicle.kernel()[1], dtype=float)
         nt = self.gains.shape[0]
-        return np.concatenate([[float(nt)], self.gains.ravel(), self.vehicle.kernel()[1]])
+        return np.concatenate([pv, self.gains.ravel(), [float(nt), float(pv.size)]])
 
     def kernel(self) -> tuple[Any, np.ndarray]:
         return _hold_rhs, self._p()

@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ._base import CompiledModel, LinearForm
+from ._base import JAC_SIG, RHS_SIG, CompiledModel, LinearForm
 
 __all__ = ["AUVLike"]
 
 
-@njit(cache=True)
+@njit(RHS_SIG, cache=True)
 def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
@@ -32,7 +32,7 @@ def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     out[1] = alpha * vel * vel + beta * vel + gamma * vel * abs(vel) + delta * s2 + u[0]
 
 
-@njit(cache=True)
+@njit(JAC_SIG, cache=True)
 def _auv_jac(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]

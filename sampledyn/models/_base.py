@@ -12,12 +12,36 @@ from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from numba import njit
+from numba import float64, njit, types
 
-__all__ = ["CompiledModel", "LinearForm", "Model", "batch_eval"]
+__all__ = [
+    "JAC_SIG",
+    "RHS_SIG",
+    "CompiledModel",
+    "LinearForm",
+    "Model",
+    "batch_eval",
+]
+
+# Every compiled kernel has one of these explicit signatures. Functions that take a
+# kernel as an argument then see a plain function-pointer type, which numba can cache
+# on disk; with a dispatcher type the cache key changes from one process to the next
+# and every run recompiles (numba issues 6251, 6772).
+# Inputs are read-only arrays (a mutable array converts to one for free), outputs
+# mutable; all C-contiguous float64.
+RO1 = types.Array(float64, 1, "C", readonly=True)
+RO2 = types.Array(float64, 2, "C", readonly=True)
+RO3 = types.Array(float64, 3, "C", readonly=True)
+RHS_SIG = types.void(float64, RO1, RO1, RO1, float64[::1])
+JAC_SIG = types.void(float64, RO1, RO1, RO1, float64[:, ::1])
+RHS_TYPE = types.FunctionType(RHS_SIG)
+JAC_TYPE = types.FunctionType(JAC_SIG)
 
 
-@njit(cache=True)
+@njit(
+    float64[:, ::1](RHS_TYPE, RO1, RO2, RO2, RO1),
+    cache=True,
+)
 def _batch_rhs(rhs, t, x, u, p):  # pragma: no cover - compiled
     n, nx = x.shape
     out = np.empty((n, nx))
@@ -26,13 +50,25 @@ def _batch_rhs(rhs, t, x, u, p):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@njit(
+    float64[:, :, ::1](JAC_TYPE, RO1, RO2, RO2, RO1),
+    cache=True,
+)
 def _batch_jac(jac, t, x, u, p):  # pragma: no cover - compiled
     n, nx = x.shape
     out = np.empty((n, nx, nx))
     for i in range(n):
         jac(t[i], x[i], u[i], p, out[i])
     return out
+
+
+def readonly(a: Any) -> np.ndarray:
+    """A read-only, C-contiguous float64 view (copies only if needed)."""
+    a = np.ascontiguousarray(a, dtype=float)
+    if a.flags.writeable:
+        a = a.view()
+        a.setflags(write=False)
+    return a
 
 
 def _as_batch(t: Any, x: Any, u: Any, nx: int, nu: int) -> tuple[np.ndarray, ...]:
@@ -57,7 +93,7 @@ def _as_batch(t: Any, x: Any, u: Any, nx: int, nu: int) -> tuple[np.ndarray, ...
 def batch_eval(kernel: Callable[..., None], p: Any, t: Any, x: Any, u: Any, nx: int, nu: int):
     """Evaluate a compiled ``kernel(t, x, u, p, out)`` on a batch of samples."""
     t, x, u, single = _as_batch(t, x, u, nx, nu)
-    out = _batch_rhs(kernel, t, x, u, p)
+    out = _batch_rhs(kernel, readonly(t), readonly(x), readonly(u), readonly(p))
     return out[0] if single else out
 
 
@@ -155,5 +191,5 @@ class CompiledModel:
         """Analytic Jacobian ``df/dx``, shape (N, nx, nx) (or (nx, nx))."""
         jac, p = self.jacobian_kernel()
         tt, xx, uu, single = _as_batch(t, x, u, self.nx, self.nu)
-        out = _batch_jac(jac, tt, xx, uu, p)
+        out = _batch_jac(jac, readonly(tt), readonly(xx), readonly(uu), readonly(p))
         return out[0] if single else out

@@ -20,6 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ._base import JAC_SIG, RHS_SIG
+
 # Layout of the parameter array p.
 _N = 0  # number of thrusters
 _LAG = 1  # 1.0 when the thruster rpm are states (eq. (3)), else 0.0
@@ -84,7 +86,7 @@ def pack_params(
     return p
 
 
-@njit(cache=True, error_model="numpy")
+@njit(RHS_SIG, cache=True, error_model="numpy")
 def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     """x' = f(t, x, u; p) for one state; writes ``out`` (shape (nx,))."""
     nt = int(p[_N])
@@ -217,7 +219,7 @@ def _minv_column(p, out, col, c0, c1, c2, c3, c4, c5):  # pragma: no cover - com
         )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(JAC_SIG, cache=True, error_model="numpy")
 def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
     """df/dx for one state; writes ``out`` (shape (nx, nx)).
 

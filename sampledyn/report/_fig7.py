@@ -123,13 +123,31 @@ def plot_fig7(
     for col, h in enumerate(hs):
         for row, (q, label) in enumerate((("pos", "position"), ("vel", "velocity"))):
             ax = axes[row][col]
+            # The y range follows the AB rules and the paper; a rule far off that
+            # range (RK4 when h |lambda| leaves its stability region) is drawn as
+            # triangles on the top edge.
+            inside = [
+                look[(h, e, v, m)][f"{q}_{norm}"]
+                for e, v in pairs
+                for m in methods
+                if m.startswith("AB") or m == "E"
+            ] + [
+                r[0 if q == "pos" else 1][j]
+                for r in (PAPER_FIG7.get((h, e, v)) for e, v in pairs)
+                if r
+                for j in (0, 1)
+            ]
+            lo, hi = min(inside) / 3.0, max(inside) * 10.0
             for k, m in enumerate(methods):
-                ys = [look[(h, e, v, m)][f"{q}_{norm}"] for e, v in pairs]
-                es = [look[(h, e, v, m)][f"{q}_{norm}_std"] for e, v in pairs]
+                ys = np.array([look[(h, e, v, m)][f"{q}_{norm}"] for e, v in pairs])
+                es = np.array([look[(h, e, v, m)][f"{q}_{norm}_std"] for e, v in pairs])
+                off = ys > hi
+                shift = xs + 0.06 * (k - len(methods) / 2)
+                ys_in = np.where(off, np.nan, ys)
                 ax.errorbar(
-                    xs + 0.06 * (k - len(methods) / 2),
-                    ys,
-                    yerr=es,
+                    shift,
+                    ys_in,
+                    yerr=np.where(off, np.nan, es),
                     fmt=".-",
                     color=colors[m],
                     label=m,
@@ -137,11 +155,21 @@ def plot_fig7(
                     ms=5,
                     capsize=2,
                 )
+                if off.any():
+                    ax.plot(
+                        shift[off],
+                        np.full(off.sum(), hi * 0.8),
+                        "^",
+                        color=colors[m],
+                        ms=7,
+                        label=f"{m} off scale (up to {ys[off].max():.0e})",
+                    )
             for m, j, mk in (("AB1", 0, "o"), ("AB4", 1, "s")):
                 ref = [PAPER_FIG7.get((h, e, v)) for e, v in pairs]
-                ys = [r[0 if q == "pos" else 1][j] if r else np.nan for r in ref]
+                ys = np.array([r[0 if q == "pos" else 1][j] if r else np.nan for r in ref])
                 ax.plot(xs, ys, mk, mfc="none", color=colors.get(m, "k"), ms=8, label=f"paper {m}")
             ax.set_yscale("log")
+            ax.set_ylim(lo, hi)
             ax.set_title(f"{label} error, h = {h:g} s", fontsize=10)
             ax.grid(True, which="both", alpha=0.3)
             if col == 0:
@@ -149,7 +177,8 @@ def plot_fig7(
             if row == 1:
                 ax.set_xticks(xs, [f"({e:g},{v:g})" for e, v in pairs], rotation=60, fontsize=8)
                 ax.set_xlabel("noise (eta %, v %)")
-    axes[0][0].legend(fontsize=7, ncol=2)
+    for ax in axes.ravel():
+        ax.legend(fontsize=6, ncol=2)
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
