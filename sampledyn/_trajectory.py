@@ -190,6 +190,8 @@ class Trajectory:
     def check_finite(self, argument: str = "measured") -> None:
         """Raise ``ValueError`` naming the first sample that holds NaN or inf."""
         for name, a in (("x", self.x), ("u", self.u), ("t", self.t)):
+            if np.isfinite(a).all():
+                continue
             bad = ~np.isfinite(a if a.ndim == 2 else a[:, None]).all(axis=1)
             if bad.any():
                 n = int(np.argmax(bad))

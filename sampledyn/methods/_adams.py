@@ -15,6 +15,7 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from .._trajectory import Trajectory
 
@@ -75,11 +76,27 @@ def ab_filter(x: np.ndarray, f: np.ndarray, h: float, weights: np.ndarray) -> np
     out = np.full((n, nx), np.nan)
     if n <= s:
         return out
-    acc = weights[0] * f[s - 1 : n - 1]
-    for i in range(1, s):
-        acc += weights[i] * f[s - 1 - i : n - 1 - i]
-    out[s:] = x[s - 1 : n - 1] + h * acc
+    _ab_fir(
+        np.ascontiguousarray(x, dtype=float),
+        np.ascontiguousarray(f, dtype=float),
+        float(h),
+        np.ascontiguousarray(weights, dtype=float),
+        out,
+    )
     return out
+
+
+@njit(cache=True)
+def _ab_fir(x, f, h, w, out):  # pragma: no cover - compiled
+    """out[k] = x[k-1] + h sum_i w[i] f[k-1-i] for k >= s, in one pass."""
+    n, nx = x.shape
+    s = w.shape[0]
+    for k in range(s, n):
+        for j in range(nx):
+            acc = 0.0
+            for i in range(s):
+                acc += w[i] * f[k - 1 - i, j]
+            out[k, j] = x[k - 1, j] + h * acc
 
 
 @dataclass(frozen=True)

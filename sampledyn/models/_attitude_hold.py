@@ -72,18 +72,19 @@ class AttitudeHold(CompiledModel):
     vehicle : Vehicle
         The open-loop vehicle (without the thruster-lag option).
     kp : float
-        Moment per radian of roll or pitch (N m/rad). Default 20: the loop's natural
-        frequency is then about 1 Hz, above the Fig. 6 sinusoids (0.15-0.3 Hz).
+        Moment per radian of roll or pitch (N m/rad). Default 40: with the BlueROV2
+        Heavy's roll inertia and added inertia (0.45 kg m^2) the loop's natural
+        frequency is about 1.5 Hz, above the Fig. 6 sinusoids (0.15-0.3 Hz).
     kd : float
-        Moment per rad/s of roll or pitch rate (N m s/rad). Default 4 (damping ratio
-        about 0.7 on the BlueROV2 Heavy's roll inertia).
+        Moment per rad/s of roll or pitch rate (N m s/rad). Default 6 (damping ratio
+        about 0.7 on that inertia).
     n_lin_frac : float
         Operating point n_lin of the thrust-to-rpm conversion, as a fraction of n_max.
     """
 
     vehicle: Any
-    kp: float = 20.0
-    kd: float = 4.0
+    kp: float = 40.0
+    kd: float = 6.0
     n_lin_frac: float = 0.3
     gains: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -160,8 +161,9 @@ class AttitudeHold(CompiledModel):
     def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
         """df/dx by central differences (step 1e-6 relative); the open-loop vehicle
         has the analytic Jacobian."""
+        single = np.ndim(x) == 1
         x = np.atleast_2d(np.asarray(x, dtype=float))
-        u = np.atleast_2d(np.asarray(u, dtype=float))
+        u = np.broadcast_to(np.asarray(u, dtype=float), (x.shape[0], self.nu))
         out = np.empty((x.shape[0], self.nx, self.nx))
         for j in range(self.nx):
             step = 1e-6 * np.maximum(1.0, np.abs(x[:, j]))
@@ -169,4 +171,4 @@ class AttitudeHold(CompiledModel):
             xp[:, j] += step
             xm[:, j] -= step
             out[:, :, j] = (self.f(t, xp, u) - self.f(t, xm, u)) / (2 * step[:, None])
-        return out
+        return out[0] if single else out
