@@ -35,7 +35,7 @@ def test_reproduce_fig3_small(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "RK4" in out and "hu/h=10" in out
     rows = list(csv.DictReader((tmp_path / "fig3.csv").open()))
-    assert {r["method"] for r in rows} == {"E", "T", "RK1", "RK2", "RK3", "RK4"}
+    assert {r["method"] for r in rows} == {"E", "T", "RK1", "RK2", "RK3", "RK4", "Ee"}
     rk = {r["method"]: float(r["rms"]) for r in rows if r["hold_ratio"] == "10"}
     assert rk["RK4"] < rk["RK2"] < rk["E"]
     assert (tmp_path / "fig3.png").stat().st_size > 10_000
