@@ -22,8 +22,8 @@ from ..simulate import simulate
 
 __all__ = ["AUVStudy", "run_auv_study"]
 
-FIG2_METHODS = tuple(f"AB{s}" for s in range(1, 7)) + ("Ee",) + tuple(
-    f"ABe{s}" for s in range(2, 7)
+FIG2_METHODS = (
+    tuple(f"AB{s}" for s in range(1, 7)) + ("Ee",) + tuple(f"ABe{s}" for s in range(2, 7))
 )
 FIG3_METHODS = ("E", "T", "RK1", "RK2", "RK3", "RK4", "Ee")
 # Samples counted as "away from input jumps" have no jump in the last 7 samples, which
