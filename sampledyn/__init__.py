@@ -6,6 +6,7 @@ continuous-time vehicle models, run against exact sampled data, with local error
 
 from . import methods as methods
 from . import models as models
+from . import sensitivity as sensitivity
 from . import signals as signals
 from ._trajectory import Certificate as Certificate
 from ._trajectory import Trajectory as Trajectory
@@ -23,6 +24,7 @@ from .methods import get_method as get_method
 from .methods._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
 from .noise import add_noise as add_noise
 from .predict import predict as predict
+from .sensitivity import advise as advise
 from .simulate import simulate as simulate
 
 __version__ = "0.1.0"
@@ -30,6 +32,7 @@ __version__ = "0.1.0"
 __all__ = [
     "AdamsBashforth",
     "add_noise",
+    "advise",
     "Certificate",
     "Euler",
     "EstimatedAdamsBashforth",
@@ -46,6 +49,7 @@ __all__ = [
     "methods",
     "models",
     "predict",
+    "sensitivity",
     "signals",
     "simulate",
 ]

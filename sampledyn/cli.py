@@ -8,6 +8,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from ._cli_advise import add_parser as _add_advise
+
 __all__ = ["main"]
 
 _REPRODUCERS: dict[str, Callable[[argparse.Namespace], int]] = {}
@@ -223,6 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     meth = sub.add_parser("methods", help="list the registered sampled-data methods")
     meth.set_defaults(func=_cmd_methods)
+    _add_advise(sub)
     return parser
 
 

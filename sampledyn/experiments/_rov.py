@@ -241,8 +241,8 @@ def run_rov_study(
         _SHARED.clear()
     certificates = {}
     for h, ratio in zip(study.h_values, ratios, strict=True):
-        k = int(round(ratio))
-        certificates[h] = shared.replace(certificate=cert).subsample(k).certificate.max_error
+        sub = shared.replace(certificate=cert).subsample(int(round(ratio))).certificate
+        certificates[h] = sub.max_error if sub is not None else math.nan
     return {"rows": rows, "certificates": certificates, "motion": motion, "model": sim_model}
 
 

@@ -1,0 +1,140 @@
+"""Truncation and noise parts of the disturbed local errors against the sampling period.
+
+One reference run at a fine base period h0 gives exact samples at every multiple
+``k h0`` by subsampling, so the truncation term (exact local error on those samples),
+the first-order path prediction and the domain bound can be drawn against h, and the
+h where truncation and noise cross can be read off, per rule.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._trajectory import Trajectory
+from ..noise import noise_amplitudes
+from ._bound import assemble_bound, jacobian_pair, subsample
+from ._domain import Domain
+from ._gains import supported_method
+from ._path import _block_norms, path_prediction
+
+__all__ = ["ErrorCurves", "error_curves", "h_grid"]
+
+
+@dataclass(frozen=True)
+class ErrorCurves:
+    """Parts of the disturbed local errors of several rules against h.
+
+    Every array has shape (K, 2): column 0 the position block eta (m, rad), column 1
+    the velocity block v (m/s, rad/s); rows follow ``h``.
+
+    Attributes
+    ----------
+    h : ndarray, shape (K,)
+        Sampling periods (s), increasing.
+    eta_pct, v_pct : float
+        Noise levels (%).
+    methods : tuple of str
+    truncation : mapping method -> ndarray (K, 2)
+        Largest undisturbed local error on exact samples.
+    predicted_noise, predicted : mapping method -> ndarray (K, 2)
+        Noise part and total of the first-order path prediction (max over samples).
+    bound_noise, bound : mapping method -> ndarray (K, 2)
+        Noise part and total of the domain bound (24)-(25).
+    """
+
+    h: np.ndarray
+    eta_pct: float
+    v_pct: float
+    methods: tuple[str, ...]
+    truncation: Mapping[str, np.ndarray]
+    predicted_noise: Mapping[str, np.ndarray]
+    predicted: Mapping[str, np.ndarray]
+    bound_noise: Mapping[str, np.ndarray]
+    bound: Mapping[str, np.ndarray]
+
+    def crossing(self, method: str) -> tuple[float | None, float | None]:
+        """The h (s) where the truncation curve meets the predicted noise curve, per
+        block (eta, v), by log-log interpolation; None when they do not cross."""
+        out: list[float | None] = []
+        for b in (0, 1):
+            tr = self.truncation[method][:, b]
+            nz = self.predicted_noise[method][:, b]
+            diff = np.log(np.maximum(tr, 1e-300)) - np.log(np.maximum(nz, 1e-300))
+            hit = np.flatnonzero((diff[:-1] < 0) & (diff[1:] >= 0))
+            if hit.size == 0 or not (nz > 0).any():
+                out.append(None)
+                continue
+            i = int(hit[0])
+            w = -diff[i] / (diff[i + 1] - diff[i])
+            lh = np.log(self.h[i]) + w * (np.log(self.h[i + 1]) - np.log(self.h[i]))
+            out.append(float(np.exp(lh)))
+        return out[0], out[1]
+
+
+def h_grid(h: float, h_min: float = 0.02, h_max: float | None = None) -> tuple[float, list[int]]:
+    """Base period h0 = h / m (m = ceil(h / h_min)) and the multiples k of it to visit:
+    about 6 per decade from h0 to ``h_max`` (default max(2 s, 4 h)), always with k = m."""
+    if not (math.isfinite(h) and h > 0):
+        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
+    m = max(1, math.ceil(h / h_min - 1e-9))
+    h0 = h / m
+    top = max(2.0, 4.0 * h) if h_max is None else h_max
+    kmax = max(m, int(top / h0 + 1e-9))
+    ks = {int(round(k)) for k in np.geomspace(1, kmax, int(6 * math.log10(kmax) + 2))}
+    ks.add(m)
+    return h0, sorted(k for k in ks if k >= 1)
+
+
+def error_curves(
+    model: Any,
+    methods: Sequence[Any],
+    base: Trajectory,
+    ks: Sequence[int],
+    eta_pct: float,
+    v_pct: float,
+    domain: Domain,
+    signal: Any = None,
+    *,
+    samples: int = 5000,
+) -> ErrorCurves:
+    """Curves of :class:`ErrorCurves` at the periods ``k base.h`` for k in ``ks``.
+
+    Periods that leave fewer than 3 predictions for some rule are dropped.
+    """
+    amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
+    report, report_plus = jacobian_pair(model, domain, amp, samples)
+    ms = [supported_method(m, "methods") for m in methods]
+    need = max(getattr(m, "history", 1) for m in ms) + 3
+    ks = [k for k in ks if (base.n_samples - 1) // k + 1 >= need]
+    if not ks:
+        raise ValueError("the reference run is too short for the requested periods.")
+    keys = ("truncation", "predicted_noise", "predicted", "bound_noise", "bound")
+    store: dict[str, dict[str, np.ndarray]] = {
+        key: {m.name: np.empty((len(ks), 2)) for m in ms} for key in keys
+    }
+    jac = np.asarray(model.jacobian(base.t, base.x, base.u))
+    jac_norms = _block_norms(jac)
+    for row, k in enumerate(ks):
+        clean = subsample(base, k)
+        for m in ms:
+            p = path_prediction(
+                model, m, clean, amp, signal, eta_pct, v_pct, jac=jac[::k], jac_norms=jac_norms[::k]
+            )
+            b = assemble_bound(m, clean.h, eta_pct, v_pct, amp, report, report_plus, p.truncation)
+            store["truncation"][m.name][row] = p.truncation
+            store["predicted_noise"][m.name][row] = p.noise
+            store["predicted"][m.name][row] = (p.eta, p.v)
+            store["bound_noise"][m.name][row] = (b.eta.noise, b.v.noise)
+            store["bound"][m.name][row] = b.total
+    return ErrorCurves(
+        h=base.h * np.asarray(ks, dtype=float),
+        eta_pct=float(eta_pct),
+        v_pct=float(v_pct),
+        methods=tuple(m.name for m in ms),
+        **store,
+    )
