@@ -6,6 +6,7 @@ continuous-time vehicle models, run against exact sampled data, with local error
 
 from . import methods as methods
 from . import models as models
+from . import results as results
 from . import sensitivity as sensitivity
 from . import signals as signals
 from ._trajectory import Certificate as Certificate
@@ -50,6 +51,7 @@ __all__ = [
     "models",
     "predict",
     "sensitivity",
+    "results",
     "signals",
     "simulate",
 ]

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ._cli_advise import add_parser as _add_advise
+from ._cli_sweep import add_parsers as _add_sweep
 
 __all__ = ["main"]
 
@@ -226,6 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     meth = sub.add_parser("methods", help="list the registered sampled-data methods")
     meth.set_defaults(func=_cmd_methods)
     _add_advise(sub)
+    _add_sweep(sub)
     return parser
 
 

@@ -5,10 +5,13 @@ from ._fig7 import fig7_table as fig7_table
 from ._fig7 import norm_evidence as norm_evidence
 from ._fig7 import plot_fig7 as plot_fig7
 from ._fig7 import ratio_phrase as ratio_phrase
+from ._sweep_report import ReportFiles as ReportFiles
+from ._sweep_report import write_report as write_report
 from ._tables import format_grid as format_grid
 from ._tables import write_csv as write_csv
 
 __all__ = [
+    "ReportFiles",
     "fig7_table",
     "format_grid",
     "norm_evidence",
@@ -16,4 +19,5 @@ __all__ = [
     "plot_fig7",
     "ratio_phrase",
     "write_csv",
+    "write_report",
 ]

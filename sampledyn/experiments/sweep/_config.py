@@ -1,0 +1,355 @@
+"""The grid of a sweep, read from a TOML file and checked before anything runs.
+
+A sweep file names one vehicle, one input, one duration and error window, and lists
+the values to cross::
+
+    vehicle = "bluerov2_heavy"   # built-in name, vehicle file (relative to this file)
+                                 # or "auv_like" (eqs. (9)-(10))
+    buoyancy_pct = 1.0           # optional, vehicles only: B = (1 + pct/100) W
+    input = "fig6"               # or a table: { name = "multilevel", hold = 0.1 }
+    T = 5000.0                   # s
+    after = 1000.0               # errors on t >= after (s)
+    h = [0.1, 0.5]               # s
+    methods = ["AB1", "AB4"]     # and/or orders = [1, 2, 3, 4]  (AB<s>)
+    eta_pct = [0, 2, 10]         # crossed with v_pct ...
+    v_pct = [0, 2]
+    # noise = [[0, 0], [2, 0]]   # ... or explicit (eta %, v %) pairs instead
+    seeds = 10                   # 0..9, or a list of seeds
+    norm = "l2_over_n"           # or a list; see sampledyn.errors.ERROR_NORMS
+    base_seed = 0                # optional
+    distribution = "uniform"     # optional, or "gaussian"
+    x0 = [1.0, 0.0]              # optional initial state (default: the model's)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ...errors import ERROR_NORMS
+from ...methods import get_method
+
+__all__ = ["SweepConfig", "SweepConfigError", "load_config"]
+
+_DISTRIBUTIONS = ("uniform", "gaussian")
+_KEYS = (
+    "vehicle",
+    "buoyancy_pct",
+    "input",
+    "T",
+    "after",
+    "h",
+    "methods",
+    "orders",
+    "eta_pct",
+    "v_pct",
+    "noise",
+    "seeds",
+    "norm",
+    "base_seed",
+    "distribution",
+    "x0",
+)
+
+
+class SweepConfigError(ValueError):
+    """A bad sweep file; ``key`` names the offending entry."""
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """A checked sweep grid (see the module docstring for the file format).
+
+    Attributes
+    ----------
+    vehicle : str
+        Built-in vehicle name, absolute path of a vehicle file, or "auv_like".
+    input : Mapping[str, Any]
+        ``{"name": <registered input>, **parameters}``.
+    T, after : float
+        Duration and start of the error window (s).
+    h : tuple of float
+        Sampling periods (s).
+    methods : tuple of str
+        Registry names (:func:`sampledyn.get_method`).
+    noise : tuple of (eta %, v %)
+        Noise pairs.
+    seeds : tuple of int
+        Noise seeds; the noise-free pair (0, 0) runs with the first seed only, since
+        its result does not depend on the seed.
+    norms : tuple of str
+        Error norms, one cell each.
+    base_seed : int
+        Seed k of a cell draws from ``SeedSequence([base_seed, k])``.
+    distribution : str
+        "uniform" (the paper's) or "gaussian".
+    buoyancy_pct : float or None
+        Net buoyancy of a vehicle in percent of its weight; None keeps the file's.
+    x0 : tuple of float or None
+        Initial state of the exact samples; None uses the model's default.
+    source : str
+        Where the config came from (file path or "<dict>").
+    """
+
+    vehicle: str
+    input: Mapping[str, Any]
+    T: float
+    after: float
+    h: tuple[float, ...]
+    methods: tuple[str, ...]
+    noise: tuple[tuple[float, float], ...]
+    seeds: tuple[int, ...]
+    norms: tuple[str, ...]
+    base_seed: int = 0
+    distribution: str = "uniform"
+    buoyancy_pct: float | None = None
+    x0: tuple[float, ...] | None = None
+    source: str = field(default="<dict>", compare=False)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON-able description (recorded with each run)."""
+        return {
+            "vehicle": self.vehicle,
+            "input": dict(self.input),
+            "T": self.T,
+            "after": self.after,
+            "h": list(self.h),
+            "methods": list(self.methods),
+            "noise": [list(p) for p in self.noise],
+            "seeds": list(self.seeds),
+            "norms": list(self.norms),
+            "base_seed": self.base_seed,
+            "distribution": self.distribution,
+            "buoyancy_pct": self.buoyancy_pct,
+            "x0": None if self.x0 is None else list(self.x0),
+        }
+
+    @classmethod
+    def from_mapping(
+        cls, data: Mapping[str, Any], *, base_dir: str | os.PathLike[str] | None = None
+    ) -> SweepConfig:
+        """Check a parsed sweep file; relative vehicle paths resolve against ``base_dir``."""
+        return _parse(data, Path(base_dir) if base_dir is not None else None, "<dict>")
+
+
+def load_config(path: str | os.PathLike[str]) -> SweepConfig:
+    """Read and check a sweep TOML file.
+
+    Raises
+    ------
+    SweepConfigError
+        naming the bad key (unknown keys too), or the TOML syntax error.
+    FileNotFoundError
+        if ``path`` does not exist.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"sweep file {str(path)!r} does not exist.")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepConfigError("<file>", f"{path}: not valid TOML: {exc}") from exc
+    return _parse(data, path.resolve().parent, str(path))
+
+
+def _where(src: str) -> str:
+    return "" if src == "<dict>" else f" in {src}"
+
+
+def _number(key: str, value: Any, src: str, *, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise SweepConfigError(key, f"`{key}`{_where(src)} must be a finite number, got {value!r}.")
+    if positive and value <= 0:
+        raise SweepConfigError(key, f"`{key}`{_where(src)} must be > 0, got {value!r}.")
+    return float(value)
+
+
+def _number_list(key: str, value: Any, src: str, *, positive: bool = False) -> tuple[float, ...]:
+    values = value if isinstance(value, list) else [value]
+    if not values:
+        raise SweepConfigError(key, f"`{key}`{_where(src)} must not be empty.")
+    out = tuple(_number(key, v, src, positive=positive) for v in values)
+    if len(set(out)) != len(out):
+        raise SweepConfigError(key, f"`{key}`{_where(src)} lists a value twice: {values!r}.")
+    return out
+
+
+def _percentages(key: str, value: Any, src: str) -> tuple[float, ...]:
+    out = _number_list(key, value, src)
+    if min(out) < 0:
+        raise SweepConfigError(key, f"`{key}`{_where(src)} must be percentages >= 0, got {value}.")
+    return out
+
+
+def _vehicle(data: Mapping[str, Any], base: Path | None, src: str) -> str:
+    vehicle = data.get("vehicle", "bluerov2_heavy")
+    if not isinstance(vehicle, str) or not vehicle.strip():
+        raise SweepConfigError(
+            "vehicle", f"`vehicle`{_where(src)} must be a string, got {vehicle!r}."
+        )
+    if vehicle.endswith(".toml") or "/" in vehicle or os.sep in vehicle:
+        p = Path(vehicle)
+        if not p.is_absolute() and base is not None:
+            p = base / p
+        if not p.is_file():
+            raise SweepConfigError("vehicle", f"`vehicle`{_where(src)}: no file {str(p)!r}.")
+        return str(p.resolve())
+    return vehicle.strip()
+
+
+def _input(data: Mapping[str, Any], src: str) -> dict[str, Any]:
+    from ._inputs import check_input
+
+    raw = data.get("input")
+    if raw is None:
+        raise SweepConfigError("input", f'`input`{_where(src)} is required, e.g. input = "fig6".')
+    spec = {"name": raw} if isinstance(raw, str) else dict(raw) if isinstance(raw, dict) else None
+    if spec is None:
+        raise SweepConfigError(
+            "input", f"`input`{_where(src)} must be a name or a table, got {raw!r}."
+        )
+    try:
+        return check_input(spec)
+    except ValueError as exc:
+        raise SweepConfigError("input", f"`input`{_where(src)}: {exc}") from exc
+
+
+def _methods(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
+    names: list[str] = []
+    raw = data.get("methods", [])
+    if isinstance(raw, str):
+        raw = [raw]
+    if not isinstance(raw, list) or not all(isinstance(m, str) for m in raw):
+        raise SweepConfigError("methods", f"`methods`{_where(src)} must be a list of names.")
+    orders = data.get("orders", [])
+    if not isinstance(orders, list) or not all(
+        isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in orders
+    ):
+        raise SweepConfigError(
+            "orders", f"`orders`{_where(src)} must be a list of integers >= 1, got {orders!r}."
+        )
+    names = [*(f"AB{s}" for s in orders), *(m.strip() for m in raw)]
+    if not names:
+        raise SweepConfigError(
+            "methods", f'give `methods` or `orders`{_where(src)}, e.g. methods = ["AB1", "AB4"].'
+        )
+    for name in names:
+        try:
+            get_method(name)
+        except (ValueError, TypeError) as exc:
+            raise SweepConfigError("methods", f"`methods`{_where(src)}: {exc}") from exc
+    return tuple(dict.fromkeys(names))
+
+
+def _noise(data: Mapping[str, Any], src: str) -> tuple[tuple[float, float], ...]:
+    if "noise" in data:
+        if "eta_pct" in data or "v_pct" in data:
+            raise SweepConfigError(
+                "noise", f"give either `noise` pairs or `eta_pct`/`v_pct`{_where(src)}, not both."
+            )
+        raw = data["noise"]
+        ok = isinstance(raw, list) and raw and all(isinstance(p, list) and len(p) == 2 for p in raw)
+        if not ok:
+            raise SweepConfigError(
+                "noise", f"`noise`{_where(src)} must be a list of [eta %, v %] pairs, got {raw!r}."
+            )
+        pairs = [
+            (_percentages("noise", [p[0]], src)[0], _percentages("noise", [p[1]], src)[0])
+            for p in raw
+        ]
+    else:
+        eta = _percentages("eta_pct", data.get("eta_pct", [0.0]), src)
+        v = _percentages("v_pct", data.get("v_pct", [0.0]), src)
+        pairs = [(e, w) for e in eta for w in v]
+    if len(set(pairs)) != len(pairs):
+        raise SweepConfigError("noise", f"`noise`{_where(src)} lists a pair twice.")
+    return tuple(pairs)
+
+
+def _seeds(data: Mapping[str, Any], src: str) -> tuple[int, ...]:
+    raw = data.get("seeds", 1)
+    if isinstance(raw, int) and not isinstance(raw, bool):
+        if raw < 1:
+            raise SweepConfigError("seeds", f"`seeds`{_where(src)} must be >= 1, got {raw}.")
+        return tuple(range(raw))
+    if (
+        isinstance(raw, list)
+        and raw
+        and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in raw)
+        and len(set(raw)) == len(raw)
+    ):
+        return tuple(raw)
+    raise SweepConfigError(
+        "seeds",
+        f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got {raw!r}.",
+    )
+
+
+def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
+    unknown = sorted(set(data) - set(_KEYS))
+    if unknown:
+        raise SweepConfigError(
+            unknown[0], f"unknown key `{unknown[0]}`{_where(src)}; valid keys: {', '.join(_KEYS)}."
+        )
+    for key in ("T", "after", "h"):
+        if key not in data:
+            raise SweepConfigError(key, f"`{key}`{_where(src)} is required.")
+    T = _number("T", data["T"], src, positive=True)
+    after = _number("after", data["after"], src)
+    if not 0 <= after < T:
+        raise SweepConfigError(
+            "after", f"`after`{_where(src)} must be in [0, T={T:g}) s, got {after}."
+        )
+    hs = _number_list("h", data["h"], src, positive=True)
+    for h in hs:
+        ratio = T / h
+        if abs(ratio - round(ratio)) > 1e-9 * ratio:
+            raise SweepConfigError(
+                "h", f"`h` = {h:g} s{_where(src)} does not divide T = {T:g} s into whole steps."
+            )
+    norms_raw = data.get("norm", "rms")
+    norms = tuple(norms_raw) if isinstance(norms_raw, list) else (norms_raw,)
+    for n in norms:
+        if n not in ERROR_NORMS:
+            raise SweepConfigError(
+                "norm", f"`norm`{_where(src)}: unknown {n!r}; valid: {', '.join(ERROR_NORMS)}."
+            )
+    base_seed = data.get("base_seed", 0)
+    if not isinstance(base_seed, int) or isinstance(base_seed, bool) or base_seed < 0:
+        raise SweepConfigError("base_seed", f"`base_seed`{_where(src)} must be an int >= 0.")
+    distribution = data.get("distribution", "uniform")
+    if distribution not in _DISTRIBUTIONS:
+        raise SweepConfigError(
+            "distribution",
+            f"`distribution`{_where(src)} must be one of {', '.join(_DISTRIBUTIONS)}, "
+            f"got {distribution!r}.",
+        )
+    buoy = data.get("buoyancy_pct")
+    x0 = data.get("x0")
+    if x0 is not None and not isinstance(x0, list):
+        raise SweepConfigError("x0", f"`x0`{_where(src)} must be a list of numbers, got {x0!r}.")
+    return SweepConfig(
+        vehicle=_vehicle(data, base, src),
+        input=_input(data, src),
+        T=T,
+        after=after,
+        h=hs,
+        methods=_methods(data, src),
+        noise=_noise(data, src),
+        seeds=_seeds(data, src),
+        norms=tuple(dict.fromkeys(norms)),
+        base_seed=base_seed,
+        distribution=distribution,
+        buoyancy_pct=None if buoy is None else _number("buoyancy_pct", buoy, src),
+        x0=None if x0 is None else tuple(_number("x0", v, src) for v in x0),
+        source=src,
+    )

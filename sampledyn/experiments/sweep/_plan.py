@@ -1,0 +1,236 @@
+"""From a sweep grid to cells (one stored row each) and tasks (what a worker runs).
+
+A cell is one (h, noise pair, seed, method, norm). Its key is the SHA-256 of its
+configuration as canonical JSON, which holds the library version and fingerprints of
+the model and the input, so a changed vehicle file, input mapping, norm or library
+version gives new keys instead of mixing with old rows.
+
+Cells that share exact samples (same vehicle, input, T, h) form one trajectory; cells
+that share measured data (same noise pair and seed) form one group, whose f values
+are computed once for every Adams-Bashforth order. A task is a chunk of groups of
+one trajectory.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._config import SweepConfig
+from ._inputs import build_model, make_input
+
+__all__ = ["Cell", "Chunk", "Group", "Setup", "Study", "cell_order", "plan_study"]
+
+SCHEMA = 1  # bump when the meaning of a stored number changes
+
+
+def _canonical(obj: Any) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def digest(obj: Any) -> str:
+    """SHA-256 (hex) of ``obj`` as canonical JSON."""
+    return hashlib.sha256(_canonical(obj).encode()).hexdigest()
+
+
+def _hash_numbers(values: np.ndarray) -> str:
+    # 10 significant digits: insensitive to last-bit differences of libm across
+    # machines, sensitive to any real change of a parameter or of the input.
+    text = ",".join(f"{v:.9e}" for v in np.asarray(values, dtype=float).ravel())
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def model_fingerprint(model: Any) -> str:
+    """Hash of ``model.f`` at 16 fixed pseudo-random points, with its names and units."""
+    rng = np.random.default_rng(20240607)
+    x0 = np.asarray(getattr(model, "default_x0", np.zeros(model.nx)), dtype=float)
+    x = x0 + rng.uniform(-0.3, 0.3, (16, model.nx))
+    u_scale = 0.5 * float(getattr(model, "n_max", 2.0))
+    u = rng.uniform(-u_scale, u_scale, (16, model.nu))
+    t = rng.uniform(0.0, 10.0, 16)
+    f = np.asarray(model.f(t, x, u), dtype=float)
+    names = "|".join((*model.state_names, *model.state_units, *model.input_names))
+    return hashlib.sha256((names + _hash_numbers(f)).encode()).hexdigest()[:16]
+
+
+def input_fingerprint(signal: Any, T: float) -> str:
+    """Hash of the input at 512 fixed times in [0, T]."""
+    t = np.linspace(0.0, T, 512)
+    return _hash_numbers(np.asarray(signal(t), dtype=float))
+
+
+_ORDER = re.compile(r"^(?:AB|ABe|RK)(\d+)$")
+_FIXED_ORDERS = {"E": 1, "Ee": 1, "T": 2}
+
+
+def vehicle_label(vehicle: str) -> str:
+    """A vehicle as recorded with its cells: a built-in name, or a file's name (its
+    content is in the model fingerprint, so moving the file keeps the keys)."""
+    return Path(vehicle).name if vehicle.endswith(".toml") else vehicle
+
+
+def cell_order(method: str) -> int | None:
+    """Order s of a method name (AB<s>, ABe<s>, RK<s>; E and Ee 1; T 2)."""
+    m = _ORDER.match(method)
+    return int(m.group(1)) if m else _FIXED_ORDERS.get(method)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One stored result: a method's error norm on one measured trajectory."""
+
+    key: str
+    traj_key: str
+    h: float
+    eta_pct: float
+    v_pct: float
+    seed: int
+    method: str
+    norm: str
+    config: str  # canonical JSON
+
+
+@dataclass(frozen=True)
+class Group:
+    """Cells on the same measured data: one noise pair and seed of one trajectory."""
+
+    eta_pct: float
+    v_pct: float
+    seed: int
+    cells: tuple[tuple[str, str, str], ...]  # (key, method, norm)
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """One task: some groups of one trajectory."""
+
+    traj_key: str
+    h: float
+    groups: tuple[Group, ...]
+
+    @property
+    def n_cells(self) -> int:
+        return sum(len(g.cells) for g in self.groups)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What every task needs besides its chunk (pickled to the workers)."""
+
+    model: Any
+    signal: Any
+    T: float
+    after: float
+    base_seed: int
+    distribution: str
+    x0: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Study:
+    """A planned sweep: the model and input built once, every cell with its key."""
+
+    config: SweepConfig
+    setup: Setup
+    cells: tuple[Cell, ...]
+    trajectories: dict[str, dict[str, Any]]  # traj_key -> its configuration
+    model_fingerprint: str
+    input_fingerprint: str
+    version: str
+
+    def chunks(self, cells: list[Cell] | tuple[Cell, ...], groups_per_chunk: int) -> list[Chunk]:
+        """Tasks for ``cells``: grouped by trajectory, then by (noise pair, seed)."""
+        if groups_per_chunk < 1:
+            raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
+        by_traj: dict[str, dict[tuple[float, float, int], list[Cell]]] = {}
+        for c in cells:
+            by_traj.setdefault(c.traj_key, {}).setdefault((c.eta_pct, c.v_pct, c.seed), []).append(
+                c
+            )
+        out: list[Chunk] = []
+        for traj_key, groups in by_traj.items():
+            h = self.trajectories[traj_key]["h"]
+            glist = [
+                Group(e, v, s, tuple((c.key, c.method, c.norm) for c in cs))
+                for (e, v, s), cs in groups.items()
+            ]
+            for i in range(0, len(glist), groups_per_chunk):
+                out.append(Chunk(traj_key, h, tuple(glist[i : i + groups_per_chunk])))
+        return out
+
+
+def plan_study(config: SweepConfig) -> Study:
+    """Build the model and input and list every cell of ``config`` with its key.
+
+    Raises
+    ------
+    ValueError
+        if the vehicle or the input cannot be built (the message names them).
+    """
+    from ... import __version__
+
+    try:
+        model = build_model(config.vehicle, config.buoyancy_pct)
+    except (ValueError, FileNotFoundError) as exc:
+        raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
+    try:
+        signal = make_input(config.input, model)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"`input` {dict(config.input)!r}: {exc}") from exc
+    if config.x0 is not None and len(config.x0) != model.nx:
+        raise ValueError(
+            f"`x0` needs {model.nx} numbers for {config.vehicle!r}, got {len(config.x0)}."
+        )
+    for h in config.h:
+        try:
+            signal.check_sampling(h)
+        except ValueError as exc:
+            raise ValueError(f"`input` with `h` = {h:g} s: {exc}") from exc
+    mfp = model_fingerprint(model)
+    ifp = input_fingerprint(signal, config.T)
+    common = {
+        "schema": SCHEMA,
+        "version": __version__,
+        "vehicle": vehicle_label(config.vehicle),
+        "buoyancy_pct": config.buoyancy_pct,
+        "model_fingerprint": mfp,
+        "input": dict(config.input),
+        "input_fingerprint": ifp,
+        "T": config.T,
+        "x0": None if config.x0 is None else list(config.x0),
+    }
+    trajectories: dict[str, dict[str, Any]] = {}
+    cells: list[Cell] = []
+    for h in config.h:
+        tconf = {**common, "h": h}
+        traj_key = digest(tconf)
+        trajectories[traj_key] = tconf
+        for eta, v in config.noise:
+            seeds = config.seeds[:1] if eta == 0 and v == 0 else config.seeds
+            for seed in seeds:
+                for method in config.methods:
+                    for norm in config.norms:
+                        cconf = {
+                            **tconf,
+                            "after": config.after,
+                            "eta_pct": eta,
+                            "v_pct": v,
+                            "seed": seed,
+                            "base_seed": config.base_seed,
+                            "distribution": config.distribution,
+                            "method": method,
+                            "norm": norm,
+                        }
+                        text = _canonical(cconf)
+                        key = hashlib.sha256(text.encode()).hexdigest()
+                        cells.append(Cell(key, traj_key, h, eta, v, seed, method, norm, text))
+    setup = Setup(
+        model, signal, config.T, config.after, config.base_seed, config.distribution, config.x0
+    )
+    return Study(config, setup, tuple(cells), trajectories, mfp, ifp, __version__)

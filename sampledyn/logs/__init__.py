@@ -1,0 +1,28 @@
+"""Real vehicle logs: read and validate a CSV/Parquet log (units, sampling, NaN,
+angle wrap-around) and measure the local errors of sampled-data models on it."""
+
+from ._evaluate import LogEvaluation as LogEvaluation
+from ._evaluate import evaluate_log as evaluate_log
+from ._read import NAN_POLICIES as NAN_POLICIES
+from ._read import LogData as LogData
+from ._read import log_from_frame as log_from_frame
+from ._read import read_log as read_log
+from ._synthetic import survey_input as survey_input
+from ._synthetic import synthetic_log as synthetic_log
+from ._synthetic import write_synthetic_log as write_synthetic_log
+from ._units import CONVERSIONS as CONVERSIONS
+from ._units import LogFormatError as LogFormatError
+
+__all__ = [
+    "CONVERSIONS",
+    "NAN_POLICIES",
+    "LogData",
+    "LogEvaluation",
+    "LogFormatError",
+    "evaluate_log",
+    "log_from_frame",
+    "read_log",
+    "survey_input",
+    "synthetic_log",
+    "write_synthetic_log",
+]
