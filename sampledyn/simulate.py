@@ -194,15 +194,44 @@ def _integrate(
         rhs(tc, y, u, p, k0)
         count = 0
         min_dt = 1e-12 * (tb - ta)
+        rejected = False
+        dt_free = dt
         while tc < tb:
+            # dt_free is the step the error control proposes; a step cut short to land
+            # on the sample time or on a kink says nothing about it and does not
+            # change it.
+            dt = dt_free
             if dt > tb - tc or tb - (tc + dt) < 1e-9 * (tb - ta):
                 dt = tb - tc
-            _dop_stages(rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew)
-            tn = tc + dt
-            if tb - tn < 1e-9 * (tb - ta):
-                tn = tb
-            _input_at(hold_row, offset, amp, freq, phase, tn, u)
-            rhs(tn, ynew, u, p, K[_NS])
+            if n_sw > 0:
+                _input_at(hold_row, offset, amp, freq, phase, tc, u)
+                sw(tc, y, u, sp, ga)
+            while True:
+                _dop_stages(
+                    rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew
+                )
+                tn = tc + dt
+                if tb - tn < 1e-9 * (tb - ta):
+                    tn = tb
+                _input_at(hold_row, offset, amp, freq, phase, tn, u)
+                rhs(tn, ynew, u, p, K[_NS])
+                # Does a switching value change sign inside the step? Then end the step
+                # on the first such kink (located on the step's Hermite interpolant),
+                # so that f is smooth on every step; the error test follows.
+                tau = dt
+                if n_sw > 0:
+                    sw(tn, ynew, u, sp, gb)
+                    for k in range(n_sw):
+                        if ga[k] * gb[k] < 0.0 and abs(ga[k]) > 1e-13 * abs(gb[k]):
+                            r = _crossing_root(
+                                sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset, amp,
+                                freq, phase, u, ytry, gr, k, ga[k], gb[k],
+                            )  # fmt: skip
+                            tau = min(tau, r)
+                if 1e-6 * dt < tau < dt * (1.0 - 1e-9):
+                    dt = tau
+                    continue
+                break
             e5 = 0.0
             e3 = 0.0
             finite = True
@@ -224,51 +253,12 @@ def _integrate(
             else:
                 err = dt * e5 / math.sqrt((e5 + 0.01 * e3) * nx)
             if err > 1.0:
-                dt = dt * max(0.2, 0.9 * err ** (-1.0 / 8.0))
-                if dt < min_dt:
-                    return 1, dt
+                rejected = True
+                dt_free = dt * max(0.2, 0.9 * err ** (-1.0 / 8.0))
+                if dt_free < min_dt:
+                    return 1, dt_free
                 continue
-            # Accepted. Does a switching value change sign inside the step?
             step = tn - tc
-            tau = step
-            if n_sw > 0:
-                _input_at(hold_row, offset, amp, freq, phase, tc, u)
-                sw(tc, y, u, sp, ga)
-                _input_at(hold_row, offset, amp, freq, phase, tn, u)
-                sw(tn, ynew, u, sp, gb)
-                for k in range(n_sw):
-                    if ga[k] * gb[k] < 0.0 and abs(ga[k]) > 1e-13 * abs(gb[k]):
-                        r = _crossing_root(
-                            sw,
-                            sp,
-                            tc,
-                            y,
-                            ynew,
-                            k0,
-                            K[_NS],
-                            step,
-                            hold_row,
-                            offset,
-                            amp,
-                            freq,
-                            phase,
-                            u,
-                            ytry,
-                            gr,
-                            k,
-                            ga[k],
-                            gb[k],
-                        )
-                        tau = min(tau, r)
-            if 1e-6 * step < tau < step * (1.0 - 1e-9):
-                # Shorten the step to end on the kink: both sides are then smooth.
-                step = tau
-                tn = tc + step
-                _dop_stages(
-                    rhs, p, tc, y, step, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew
-                )
-                _input_at(hold_row, offset, amp, freq, phase, tn, u)
-                rhs(tn, ynew, u, p, K[_NS])
             if certify:
                 # The same step as two half steps from the fine state.
                 half = 0.5 * step
@@ -304,12 +294,16 @@ def _integrate(
                 k0[j] = K[_NS, j]
             count += 1
             factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-            dt = dt * factor
+            if rejected:  # no growth right after a rejection (as in Hairer's DOP853)
+                factor = min(1.0, factor)
+                rejected = False
+            if step >= dt_free * (1.0 - 1e-9):
+                dt_free = step * factor
+        dt = dt_free
         for j in range(nx):
             X[n + 1, j] = y[j]
             diff[n, j] = y[j] - yf[j]
         steps[n] = count
-        dt = min(dt, tb - ta)
     return 0, dt
 
 

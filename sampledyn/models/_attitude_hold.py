@@ -29,38 +29,19 @@ from ._vehicle_kernels import vehicle_rhs
 __all__ = ["AttitudeHold"]
 
 
-# Parameter layout: the vehicle's own parameters first (its kernel reads them by
-# fixed index and ignores the rest), then the N_thr x 4 gains, then N_thr and the
-# offset of the gains.
-
-
-@njit(cache=True)
-def _applied(x, u, p, n_out):  # pragma: no cover - compiled
-    nt = int(p[-2])
-    off = int(p[-1])
-    phi, theta, pr, qr = x[3], x[4], x[9], x[10]
-    for i in range(nt):
-        k = off + 4 * i
-        n_out[i] = u[i] + p[k] * phi + p[k + 1] * theta + p[k + 2] * pr + p[k + 3] * qr
-
-
-@njit(RHS_SIG, cache=True)
-def _hold_rhs(t, x, u, p, out):  # pragma: no cover - compiled
-    n = np.empty(int(p[-2]))
-    _applied(x, u, p, n)
-    vehicle_rhs(t, x, n, p, out)
-
-
 @njit(RHS_SIG, cache=True)
 def _hold_switch(t, x, u, p, out):  # pragma: no cover - compiled
-    # |v| v damping and the applied rpm in n |n|.
-    nt = int(p[-2])
+    # |v| v damping and the applied rpm n = u + G x in n |n| (p: the vehicle's
+    # parameters, then the feedback flag and G, as read by vehicle_rhs).
+    nt = int(p[0])
+    g0 = p.shape[0] - 12 * nt
     for k in range(6):
         out[k] = x[6 + k]
-    n = np.empty(nt)
-    _applied(x, u, p, n)
     for i in range(nt):
-        out[6 + i] = n[i]
+        n = u[i]
+        for j in range(12):
+            n += p[g0 + 12 * i + j] * x[j]
+        out[6 + i] = n
 
 
 @dataclass(frozen=True)
@@ -141,12 +122,14 @@ class AttitudeHold(CompiledModel):
         return f"{self.vehicle.name} + attitude hold"
 
     def _p(self) -> np.ndarray:
+        # The vehicle kernel's optional feedback block: flag, then G (N x 12).
         pv = np.asarray(self.vehicle.kernel()[1], dtype=float)
-        nt = self.gains.shape[0]
-        return np.concatenate([pv, self.gains.ravel(), [float(nt), float(pv.size)]])
+        feedback = np.zeros((self.gains.shape[0], 12))
+        feedback[:, [3, 4, 9, 10]] = self.gains
+        return np.concatenate([pv, [1.0], feedback.ravel()])
 
     def kernel(self) -> tuple[Any, np.ndarray]:
-        return _hold_rhs, self._p()
+        return vehicle_rhs, self._p()
 
     def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
         """Zero crossings of the velocities and of the applied rpm."""

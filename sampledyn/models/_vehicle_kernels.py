@@ -41,6 +41,10 @@ _M = 43  # M row-major (36)
 _MINV = 79  # M^-1 row-major (36)
 _ALLOC = 115  # B (6 N), column i at _ALLOC + 6 i
 _HEADER = _ALLOC
+# Optional, after the allocation: a flag (1.0) and a linear state feedback G (N x 12,
+# row-major) added to the rpm inputs, n = u + G x[:12]. The vehicle itself never
+# sets it; a closed-loop wrapper (sampledyn.models.AttitudeHold) does, so that the
+# loop costs no extra call or allocation in the compiled right-hand side.
 
 
 def pack_params(
@@ -170,8 +174,14 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     r5 -= (p[_DL + 5] + p[_DQ + 5] * abs(vr)) * vr
 
     # --- thrusters, eq. (7), tau = B T
+    fb = _ALLOC + 6 * nt  # optional state feedback on the rpm input
+    feedback = p.shape[0] > fb and p[fb] > 0.5
     for i in range(nt):
         n = x[12 + i] if lag else u[i]
+        if feedback and not lag:
+            g = fb + 1 + 12 * i
+            for j in range(12):
+                n += p[g + j] * x[j]
         c0 = p[_ALLOC + 6 * i + 0]
         c1 = p[_ALLOC + 6 * i + 1]
         c2 = p[_ALLOC + 6 * i + 2]
