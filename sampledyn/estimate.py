@@ -41,6 +41,7 @@ from ._trajectory import Trajectory
 from .methods._adams import AdamsBashforth, ab_filter
 from .methods._registry import get_method
 from .methods._runge_kutta import RungeKutta
+from .predict import check_measured
 
 __all__ = ["EstimationResult", "estimate", "estimate_and_predict"]
 
@@ -146,24 +147,6 @@ class EstimationResult:
 
 # ---------------------------------------------------------------------------------
 # checks
-
-
-def _check_data(model: Any, measured: Any) -> None:
-    if not isinstance(measured, Trajectory):
-        raise TypeError(f"`measured` must be a Trajectory, got {type(measured).__name__}.")
-    if measured.nx != model.nx or measured.nu != model.nu:
-        raise ValueError(
-            f"`measured` has nx={measured.nx}, nu={measured.nu}; the model needs "
-            f"nx={model.nx}, nu={model.nu}."
-        )
-    measured.check_finite("measured")
-    steps = np.diff(measured.t)
-    if steps.size and np.abs(steps - measured.h).max() > 1e-6 * measured.h:
-        n = int(np.argmax(np.abs(steps - measured.h)))
-        raise ValueError(
-            f"`measured.t` is not uniformly sampled with h={measured.h} s: "
-            f"t[{n + 1}] - t[{n}] = {steps[n]:g} s."
-        )
 
 
 def _check_p(p: Any) -> float:
@@ -419,7 +402,7 @@ def estimate(
     the weights is well determined, and jointly the weights trade off against the
     scale of theta (exactly so when f0 is zero). Expect a large condition number.
     """
-    _check_data(model, measured)
+    check_measured(model, measured)
     p = _check_p(p)
     rule = get_method(structure)
     if getattr(rule, "estimates_params", False):

@@ -33,6 +33,13 @@ def predict(method: Any, model: Any, measured: Trajectory, signal: Any = None) -
     NaN in the rows for which the method lacks history (row 0 always).
     """
     m = get_method(method)
+    check_measured(model, measured)
+    return np.asarray(m.predict(model, measured, signal))
+
+
+def check_measured(model: Any, measured: Any) -> None:
+    """Raise if ``measured`` is not a finite, uniformly sampled Trajectory of the
+    model's sizes (errors name the argument and the first bad sample)."""
     if not isinstance(measured, Trajectory):
         raise TypeError(f"`measured` must be a Trajectory, got {type(measured).__name__}.")
     if measured.nx != model.nx or measured.nu != model.nu:
@@ -48,4 +55,3 @@ def predict(method: Any, model: Any, measured: Trajectory, signal: Any = None) -
             f"`measured.t` is not uniformly sampled with h={measured.h} s: "
             f"t[{n + 1}] - t[{n}] = {steps[n]:g} s."
         )
-    return np.asarray(m.predict(model, measured, signal))

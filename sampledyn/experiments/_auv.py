@@ -8,7 +8,6 @@ transient.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -185,10 +184,3 @@ def run_auv_study(study: AUVStudy = AUVStudy(), *, progress: bool = False) -> li
         if bar is not None:
             bar.close()
     return rows
-
-
-def method_order_axis(methods: Sequence[str]) -> list[tuple[str, float]]:
-    """x-axis positions for a figure: AB_s and RK_s at s, E at 1, T at 2."""
-    from ..methods import get_method
-
-    return [(m, float(get_method(m).order)) for m in methods]

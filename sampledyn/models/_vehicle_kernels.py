@@ -90,6 +90,26 @@ def pack_params(
     return p
 
 
+@njit(cache=True, error_model="numpy")
+def _mass_times_v(x, p):  # pragma: no cover - compiled
+    """(a, b) = M v, the two 3-vectors of C(v) v = [w x a; v_lin x a + w x b]."""
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    b0 = 0.0
+    b1 = 0.0
+    b2 = 0.0
+    for j in range(6):
+        vj = x[6 + j]
+        a0 += p[_M + j] * vj
+        a1 += p[_M + 6 + j] * vj
+        a2 += p[_M + 12 + j] * vj
+        b0 += p[_M + 18 + j] * vj
+        b1 += p[_M + 24 + j] * vj
+        b2 += p[_M + 30 + j] * vj
+    return a0, a1, a2, b0, b1, b2
+
+
 @njit(RHS_SIG, cache=True, error_model="numpy")
 def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     """x' = f(t, x, u; p) for one state; writes ``out`` (shape (nx,))."""
@@ -133,20 +153,7 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
         out[k] += p[_VCN + k]
 
     # --- (a, b) = M v, for C(v) v = [nu2 x a; nu1 x a + nu2 x b]
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
-    b0 = 0.0
-    b1 = 0.0
-    b2 = 0.0
-    for j in range(6):
-        vj = x[6 + j]
-        a0 += p[_M + j] * vj
-        a1 += p[_M + 6 + j] * vj
-        a2 += p[_M + 12 + j] * vj
-        b0 += p[_M + 18 + j] * vj
-        b1 += p[_M + 24 + j] * vj
-        b2 += p[_M + 30 + j] * vj
+    a0, a1, a2, b0, b1, b2 = _mass_times_v(x, p)
 
     # --- restoring force with the sign of eq. (5): [(W-B) k; (W r_G - B r_B) x k]
     wgt = p[_W]
@@ -346,20 +353,7 @@ def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
     vp = x[9]
     vq = x[10]
     vr = x[11]
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
-    b0 = 0.0
-    b1 = 0.0
-    b2 = 0.0
-    for j in range(6):
-        vj = x[6 + j]
-        a0 += p[_M + j] * vj
-        a1 += p[_M + 6 + j] * vj
-        a2 += p[_M + 12 + j] * vj
-        b0 += p[_M + 18 + j] * vj
-        b1 += p[_M + 24 + j] * vj
-        b2 += p[_M + 30 + j] * vj
+    a0, a1, a2, b0, b1, b2 = _mass_times_v(x, p)
 
     for j in range(6):
         # column j of d(C v)/dv = [S(nu2) M_top; S(nu1) M_top + S(nu2) M_bot]_j + extra
