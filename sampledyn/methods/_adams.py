@@ -88,15 +88,20 @@ def ab_filter(x: np.ndarray, f: np.ndarray, h: float, weights: np.ndarray) -> np
 
 @njit(cache=True)
 def _ab_fir(x, f, h, w, out):  # pragma: no cover - compiled
-    """out[k] = x[k-1] + h sum_i w[i] f[k-1-i] for k >= s, in one pass."""
+    """out[k] = x[k-1] + sum_i (h w[i]) f[k-1-i] for k >= s, row by row (the inner
+    loops run over contiguous rows, which the compiler vectorises)."""
     n, nx = x.shape
     s = w.shape[0]
     for k in range(s, n):
+        xr = x[k - 1]
+        o = out[k]
         for j in range(nx):
-            acc = 0.0
-            for i in range(s):
-                acc += w[i] * f[k - 1 - i, j]
-            out[k, j] = x[k - 1, j] + h * acc
+            o[j] = xr[j]
+        for i in range(s):
+            c = h * w[i]
+            fr = f[k - 1 - i]
+            for j in range(nx):
+                o[j] += c * fr[j]
 
 
 @dataclass(frozen=True)
