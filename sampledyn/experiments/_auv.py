@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ERROR_NORMS, error_norm, local_errors
+from ..errors import ERROR_NORMS, error_norm, error_norms, local_errors
 from ..models import AUVLike
 from ..predict import predict
 from ..signals import Multilevel
@@ -161,8 +161,7 @@ def run_auv_study(study: AUVStudy = AUVStudy(), *, progress: bool = False) -> li
                     "method": method.name,
                     "order": int(method.order),
                 }
-                for kind in ERROR_NORMS:
-                    row[kind] = error_norm(err, traj.t, kind=kind, after=study.after)
+                row.update(error_norms(err, traj.t, ERROR_NORMS, after=study.after))
                 for key, mask in (("rms_away_from_jumps", no_jump), ("rms_smooth", smooth)):
                     row[key] = (
                         error_norm(err, traj.t, kind="rms", after=study.after, where=mask)
