@@ -227,7 +227,10 @@ def _integrate(
                                 sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset, amp,
                                 freq, phase, u, ytry, gr, k, ga[k], gb[k],
                             )  # fmt: skip
-                            tau = min(tau, r)
+                            # A crossing at the very start (the previous step ended
+                            # on this kink) must not hide a later one.
+                            if r > 1e-6 * dt:
+                                tau = min(tau, r)
                 if 1e-6 * dt < tau < dt * (1.0 - 1e-9):
                     dt = tau
                     continue
