@@ -76,6 +76,11 @@ _ADDED_MASS_UNITS = ("kg",) * 3 + ("kg m^2",) * 3
 _LINEAR_UNITS = ("N s/m",) * 3 + ("N m s/rad",) * 3
 _QUADRATIC_UNITS = ("N s^2/m^2",) * 3 + ("N m s^2/rad^2",) * 3
 
+QUADRATIC_IS_DIAGONAL = (
+    "is diagonal, D_n(v) = diag(d_q) |v| (as in Fossen's and uuv_simulator's models): "
+    "give its 6 diagonal entries."
+)
+
 # A published symmetric matrix (inertia tensor, added mass) is often symmetric only to
 # the digits it is printed with: the pair (i, j), (j, i) is replaced by its mean when
 # |A_ij - A_ji| <= SYMMETRY_RTOL max(|A_ij|, |A_ji|), with a warning; a larger
@@ -399,9 +404,7 @@ class Vehicle(CompiledModel):
         )
         if np.shape(self.quadratic_damping) == (6, 6):
             raise VehicleParameterError(
-                "quadratic_damping",
-                "`quadratic_damping` is diagonal, D_n(v) = diag(d_q) |v| (as in Fossen's and "
-                "uuv_simulator's models): give its 6 diagonal entries.",
+                "quadratic_damping", f"`quadratic_damping` {QUADRATIC_IS_DIAGONAL}"
             )
         for name, size in (
             ("r_G", 3),

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ._vehicle import Vehicle, VehicleParameterError
+from ._vehicle import QUADRATIC_IS_DIAGONAL, Vehicle, VehicleParameterError
 
 __all__ = ["builtin_vehicles", "load_vehicle"]
 
@@ -133,12 +133,7 @@ def _quantity(
     shape = _shape(value)
     if shape not in units:
         if fld.endswith("quadratic_damping") and shape == (6, 6):
-            raise _fail(
-                path,
-                fld,
-                "quadratic damping is diagonal, D_n(v) = diag(d_q) |v| (as in Fossen's and "
-                "uuv_simulator's models): give its 6 diagonal entries.",
-            )
+            raise _fail(path, fld, f"quadratic damping {QUADRATIC_IS_DIAGONAL}")
         allowed = " or ".join(_describe(s) for s in units)
         raise _fail(path, fld, f"`value` must be {allowed}, got {value!r}.")
     want = units[shape]
