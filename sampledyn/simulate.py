@@ -15,6 +15,7 @@ per-interval flow-error estimate.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -227,7 +228,10 @@ def _integrate(
                                 sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset, amp,
                                 freq, phase, u, ytry, gr, k, ga[k], gb[k],
                             )  # fmt: skip
-                            tau = min(tau, r)
+                            # A crossing at the very start (the previous step ended
+                            # on this kink) must not hide a later one.
+                            if r > 1e-6 * dt:
+                                tau = min(tau, r)
                 if 1e-6 * dt < tau < dt * (1.0 - 1e-9):
                     dt = tau
                     continue
@@ -336,6 +340,61 @@ def switching(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
     return _index_switch, sp, input_only
 
 
+def _warn_input_limits(model: Any, spec: Any, t: np.ndarray) -> None:
+    """Warn when the input leaves the model's ``input_limits()`` (lower, upper arrays of
+    shape (nu,); e.g. thruster rpm beyond n_max, where the vehicle saturates), saying
+    for how long in total and from when.
+
+    The input is evaluated inside every sampling interval as the integrator sees it
+    (the interval's held part plus the sinusoids) on a grid of at least 4 points per
+    interval and 256 per period of the fastest sinusoid; the time beyond a limit is
+    interpolated linearly between grid points.
+    """
+    limits = getattr(model, "input_limits", None)
+    if limits is None:
+        return
+    lo, hi = (np.asarray(a, dtype=float) for a in limits())
+    h = float(t[1] - t[0])
+    waves = bool(np.any(spec.amp))
+    m = max(4, math.ceil(256.0 * h * float(spec.freq_hz.max()))) if waves else 1
+    tau = h * np.arange(m + 1) / m
+    total, first, worst = 0.0, math.inf, np.zeros(lo.shape)
+    chunk = max(1, 100_000 // ((m + 1) * lo.size * max(1, spec.amp.shape[1])))
+    for a in range(0, t.size - 1, chunk):
+        tt = t[a : min(a + chunk, t.size - 1), None] + tau[None, :]  # (c, m + 1)
+        u = spec.hold[a : a + tt.shape[0], None, :] + spec.offset
+        if waves:
+            arg = 2.0 * np.pi * spec.freq_hz * tt[:, :, None, None] + spec.phase_rad
+            u = u + (spec.amp * np.sin(arg)).sum(axis=-1)
+        over = np.maximum(u - hi, lo - u)  # (c, m + 1, nu), > 0 beyond a limit
+        worst = np.maximum(worst, over.max(axis=(0, 1)))
+        e = over.max(axis=2)
+        ea, eb = e[:, :-1], e[:, 1:]
+        cross = (ea > 0) != (eb > 0)
+        part = np.where(ea > 0, ea, eb) / np.where(cross, np.abs(ea) + np.abs(eb), 1.0)
+        total += float(np.where(cross, part, (ea > 0) & (eb > 0)).sum()) * h / m
+        hit = np.flatnonzero(((ea > 0) | (eb > 0)).ravel())
+        if hit.size and not math.isfinite(first):
+            i, j = divmod(int(hit[0]), m)
+            lag = 0.0 if ea[i, j] > 0 else h / m * (1.0 - part[i, j])
+            first = float(tt[i, j]) + lag
+    if not math.isfinite(first):
+        return
+    names = getattr(model, "input_names", ()) or tuple(f"u{j + 1}" for j in range(lo.size))
+    units = getattr(model, "input_units", ()) or ("",) * lo.size
+    beyond = "; ".join(
+        f"{names[j]} beyond [{lo[j]:.6g}, {hi[j]:.6g}] {units[j]} by up to {worst[j]:.4g}"
+        for j in np.flatnonzero(worst > 0)
+    )
+    warnings.warn(
+        f"the input leaves the model's limits (`input_limits()`) for {total:.4g} s in total "
+        f"of {t[-1]:g} s, first at t = {first:.6g} s ({beyond}); the model saturates it "
+        "there.",
+        UserWarning,
+        stacklevel=3,
+    )
+
+
 def _check_period(h: Any, T: Any) -> int:
     for name, v in (("h", h), ("T", T)):
         if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
@@ -413,6 +472,7 @@ def simulate(
 
     t = float(h) * np.arange(n_int + 1)
     spec = signal.spec(t)
+    _warn_input_limits(model, spec, t)
     rhs, p = model.kernel()
     sw, sp, sw_input_only = switching(model)
     X = np.empty((n_int + 1, model.nx))

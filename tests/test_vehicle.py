@@ -7,6 +7,7 @@ from importlib import resources
 
 import numpy as np
 import pytest
+from _vehicle_reference import FULL_MATRICES, central_differences, random_states, reference_f
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -37,104 +38,14 @@ OPTIONS = {
         "cable_force": (-2.0, 0.5, 1.0, 0.0, 0.1, 0.2),
         "r_G": (0.01, 0.0, 0.02),
     },
+    "full": FULL_MATRICES,
+    "full_lag": {**FULL_MATRICES, "thruster_lag": True, "current": (0.1, 0, 0, 0, 0, 0.02)},
 }
 
 
 @pytest.fixture(scope="module")
 def rov() -> Vehicle:
     return load_vehicle("bluerov2_heavy")
-
-
-def random_states(model: Vehicle, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """States with |theta| < 60 deg, velocities of order 0.5, rpm within +-3000."""
-    rng = np.random.default_rng(seed)
-    eta = np.column_stack(
-        [
-            rng.normal(0.0, 5.0, (n, 3)),
-            rng.uniform(-1.0, 1.0, (n, 1)),
-            rng.uniform(-1.0, 1.0, (n, 1)),
-            rng.uniform(-np.pi, np.pi, (n, 1)),
-        ]
-    )
-    v = rng.normal(0.0, 0.5, (n, 6))
-    lag = rng.uniform(-3000.0, 3000.0, (n, model.nx - 12))
-    u = rng.uniform(-3000.0, 3000.0, (n, model.nu))
-    return np.column_stack([eta, v, lag]), u
-
-
-# ------------------------------------------------------------------ independent reference
-def _S(a: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-
-
-def reference_f(model: Vehicle, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Eqs. (5)-(7) in plain NumPy from textbook formulas (Fossen 2011), one state.
-
-    Uses the velocity-independent C_RB parametrization (Fossen eq. 3.60), C_A of a
-    diagonal M_A (eq. 6.43 written out), restoring forces from rotating the weight and
-    buoyancy vectors, and thruster forces summed one by one with np.cross.
-    """
-    phi, theta, psi = x[3:6]
-    nu1, nu2 = x[6:9], x[9:12]
-    rx = np.array([[1, 0, 0], [0, np.cos(phi), -np.sin(phi)], [0, np.sin(phi), np.cos(phi)]])
-    ry = np.array(
-        [[np.cos(theta), 0, np.sin(theta)], [0, 1, 0], [-np.sin(theta), 0, np.cos(theta)]]
-    )
-    rz = np.array([[np.cos(psi), -np.sin(psi), 0], [np.sin(psi), np.cos(psi), 0], [0, 0, 1]])
-    R = rz @ ry @ rx
-    T = np.array(
-        [
-            [1, np.sin(phi) * np.tan(theta), np.cos(phi) * np.tan(theta)],
-            [0, np.cos(phi), -np.sin(phi)],
-            [0, np.sin(phi) / np.cos(theta), np.cos(phi) / np.cos(theta)],
-        ]
-    )
-    m = model.mass
-    rg = np.array(model.r_G)
-    rb = np.array(model.r_B)
-    Io = np.diag(model.inertia) - m * _S(rg) @ _S(rg)
-    MRB = np.block([[m * np.eye(3), -m * _S(rg)], [m * _S(rg), Io]])
-    MA = np.diag(model.added_mass)
-    M = MRB + MA
-    CRB = np.block([[m * _S(nu2), -m * _S(nu2) @ _S(rg)], [m * _S(rg) @ _S(nu2), -_S(Io @ nu2)]])
-    A11 = MA[:3, :3]
-    A22 = MA[3:, 3:]
-    CA = np.block([[np.zeros((3, 3)), -_S(A11 @ nu1)], [-_S(A11 @ nu1), -_S(A22 @ nu2)]])
-    v = x[6:12]
-    D = np.diag(np.array(model.linear_damping) + np.array(model.quadratic_damping) * np.abs(v))
-    W = m * model.g
-    B = model.rho * model.g * model.volume
-    fg = R.T @ np.array([0.0, 0.0, W])
-    fb = R.T @ np.array([0.0, 0.0, -B])
-    g = np.concatenate([fg + fb, np.cross(rg, fg) + np.cross(rb, fb)])
-    n = x[12:] if model.thruster_lag else u
-    tau = np.zeros(6)
-    omega = nu2
-    for i, (r_i, d_i) in enumerate(
-        zip(model.thruster_positions, model.thruster_directions, strict=True)
-    ):
-        r_i = np.array(r_i)
-        d_i = np.array(d_i)
-        va = (nu1 + np.cross(omega, r_i)) @ d_i
-        thrust = model.K1 * n[i] * abs(n[i]) - model.K2 * va * abs(n[i])
-        tau += np.concatenate([thrust * d_i, np.cross(r_i, thrust * d_i)])
-    tau_c = np.array(model.cable_force)
-    vdot = np.linalg.solve(M, -(CRB + CA) @ v - D @ v + g + tau + tau_c)
-    vc = np.array(model.current)
-    J = np.block([[R, np.zeros((3, 3))], [np.zeros((3, 3)), T]])
-    etadot = J @ (v + vc) if model.current_frame == "body" else J @ v + vc
-    ndot = (u - x[12:]) / model.lag_time_constant if model.thruster_lag else np.zeros(0)
-    return np.concatenate([etadot, vdot, ndot])
-
-
-def central_differences(model: Vehicle, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    jac = np.empty((model.nx, model.nx))
-    for j in range(model.nx):
-        step = 1e-6 * max(1.0, abs(x[j]))
-        e = np.zeros(model.nx)
-        e[j] = step
-        jac[:, j] = (model.f(0.0, x + e, u) - model.f(0.0, x - e, u)) / (2 * step)
-    return jac
 
 
 # ------------------------------------------------------------------------- the file
@@ -187,18 +98,121 @@ def test_with_params_returns_new_model(rov: Vehicle) -> None:
         rov.with_params(linear_damping=(1.0,) * 6, X_u=2.0)
 
 
+def test_products_of_inertia_by_name(rov: Vehicle) -> None:
+    # Fossen 2011, eq. 3.33: the tensor holds -I_xy, -I_xz, -I_yz off the diagonal
+    assert rov.params["Ixy"] == 0.0 and np.ndim(rov.inertia) == 1
+    tilted = rov.with_params(Ixy=0.01, Iyz=-0.02, Iz=0.4)
+    np.testing.assert_array_equal(
+        tilted.inertia_tensor, [[0.26, -0.01, 0.0], [-0.01, 0.23, 0.02], [0.0, 0.02, 0.4]]
+    )
+    assert (tilted.params["Ixy"], tilted.params["Iyz"], tilted.params["Ixz"]) == (0.01, -0.02, 0)
+    np.testing.assert_allclose(
+        tilted.mass_matrix[3:, 3:], tilted.inertia_tensor + np.diag(rov.added_mass[3:])
+    )
+    # a diagonal entry of a full matrix keeps the off-diagonal part
+    full = rov.with_params(**FULL_MATRICES)
+    changed = full.with_params(X_u=20.0, Z_wdot=19.0)
+    assert changed.linear_damping_matrix[0, 0] == 20.0 and changed.params["X_u"] == 20.0
+    assert changed.added_mass_matrix[2, 2] == 19.0
+    off = ~np.eye(6, dtype=bool)
+    np.testing.assert_array_equal(
+        changed.linear_damping_matrix[off], full.linear_damping_matrix[off]
+    )
+    np.testing.assert_array_equal(changed.added_mass_matrix[off], full.added_mass_matrix[off])
+
+
+def test_damping_matrix(rov: Vehicle) -> None:
+    full = rov.with_params(**FULL_MATRICES)
+    v = np.array([0.3, -0.2, 0.1, 0.5, -0.4, 0.2])
+    expected = np.array(FULL_MATRICES["linear_damping"]) + np.diag(
+        np.array(rov.quadratic_damping) * np.abs(v)
+    )
+    np.testing.assert_array_equal(full.damping(v), expected)
+    assert full.damping(np.stack([v, v])).shape == (2, 6, 6)
+
+
+def test_printed_digit_asymmetry_is_averaged_with_a_warning(rov: Vehicle) -> None:
+    added = np.diag(rov.added_mass)
+    added[1, 3], added[3, 1] = -0.35, -0.3502  # 5.7e-4 relative: within 1e-3
+    with pytest.warns(UserWarning, match=r"`added_mass`.*\[1, 3\] = -0.35 vs \[3, 1\] = -0.3502"):
+        model = rov.with_params(added_mass=added)
+    assert model.added_mass_matrix[1, 3] == model.added_mass_matrix[3, 1] == 0.5 * (-0.35 - 0.3502)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # stored symmetric: no second warning
+        model.with_params(X_u=1.0)
+    added[3, 1] = -0.36  # 2.8e-2 relative: refused, naming the pair
+    with pytest.raises(ValueError, match=r"`added_mass` must be symmetric: \[1, 3\]"):
+        rov.with_params(added_mass=added)
+
+
+@pytest.mark.parametrize(
+    ("argument", "value", "match"),
+    [
+        ("inertia", ((0.26, 0.3, 0), (0.3, 0.23, 0), (0, 0, 0.37)), "positive definite"),
+        ("inertia", ((0.26, 0.0), (0.0, 0.23)), r"shape \(3,\) or \(3, 3\)"),
+        ("added_mass", np.ones((6, 5)), r"shape \(6,\) or \(6, 6\)"),
+        ("linear_damping", np.eye(6) * np.nan, r"`linear_damping\[0, 0\]` must be finite"),
+        ("quadratic_damping", np.eye(6), "diagonal"),
+        ("added_mass", -40.0 * np.eye(6), "not positive definite"),
+    ],
+)
+def test_bad_matrix_arguments_name_the_argument(rov, argument, value, match) -> None:
+    with pytest.raises(ValueError, match=match) as info:
+        rov.with_params(**{argument: value})
+    assert f"`{argument}" in str(info.value)
+
+
 # ---------------------------------------------------------------------- invariants
+def _rexrov() -> Vehicle:
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "vehicle file rexrov", UserWarning)
+        return load_vehicle("rexrov")
+
+
+INVARIANT_MODELS = (
+    load_vehicle("bluerov2_heavy"),
+    load_vehicle("bluerov2_heavy", r_G=(0.02, -0.01, 0.05)),
+    load_vehicle("bluerov2_heavy", **FULL_MATRICES),
+    _rexrov(),
+)
+
+
 @settings(max_examples=60, deadline=None)
 @given(arrays(np.float64, 6, elements=st.floats(-5.0, 5.0)))
 def test_coriolis_is_skew_symmetric(v: np.ndarray) -> None:
-    for model in (
-        load_vehicle("bluerov2_heavy"),
-        load_vehicle("bluerov2_heavy", r_G=(0.02, -0.01, 0.05)),
-    ):
+    # C(v) = C_RB(v) + C_A(v) from the full M (Fossen 2011, eqs. 3.46 and 6.43)
+    for model in INVARIANT_MODELS:
         C = model.coriolis(v)
-        np.testing.assert_allclose(C, -C.T, atol=1e-12)
+        np.testing.assert_array_equal(C, -C.T)
         # no power: v^T C(v) v = 0
-        assert abs(v @ C @ v) <= 1e-9 * (1.0 + v @ v)
+        scale = np.abs(model.mass_matrix).max()
+        assert abs(v @ C @ v) <= 1e-13 * scale * (1.0 + v @ v) ** 1.5
+        # C(v) v is the Coriolis term of f: the kernel's v' at zero damping, thrust and
+        # restoring force is -M^-1 C(v) v
+        bare = model.with_params(
+            linear_damping=(0.0,) * 6,
+            quadratic_damping=(0.0,) * 6,
+            volume=model.mass / model.rho,
+            r_B=model.r_G,
+        )
+        x = np.concatenate([np.zeros(6), v])
+        np.testing.assert_allclose(
+            bare.f(0.0, x, np.zeros(model.nu))[6:],
+            -model.minv @ C @ v,
+            rtol=1e-12,
+            atol=1e-12 * (1.0 + np.abs(model.minv @ C @ v).max()),
+        )
+
+
+def test_mass_matrix_is_symmetric_positive_definite() -> None:
+    for model in INVARIANT_MODELS:
+        M = model.mass_matrix
+        np.testing.assert_array_equal(M, M.T)
+        assert np.linalg.eigvalsh(M).min() > 0
+        np.testing.assert_allclose(model.minv @ M, np.eye(6), atol=1e-12)
+        # M_RB + M_A with the tensor about the CG shifted to the origin (Fossen eq. 3.44)
+        assert M[0, 0] == pytest.approx(model.mass + model.added_mass_matrix[0, 0])
+        np.testing.assert_array_equal(model.added_mass_matrix, model.added_mass_matrix.T)
 
 
 @settings(max_examples=60, deadline=None)
@@ -291,6 +305,29 @@ def test_thruster_term_of_the_velocity_jacobian(rov: Vehicle) -> None:
         np.testing.assert_allclose(with_thrust[i] - without[i], expected, atol=1e-12)
 
 
+@pytest.mark.parametrize("option", ["plain", "lag", "all", "full", "full_lag", "rexrov"])
+def test_input_jacobian_matches_central_differences(option: str) -> None:
+    model = _rexrov() if option == "rexrov" else load_vehicle("bluerov2_heavy", **OPTIONS[option])
+    # up to 1.3 n_max: some commands saturate, where df/du must vanish
+    x, u = random_states(model, 8, seed=14, rpm_frac=1.3)
+    jac = model.input_jacobian(0.0, x, u)
+    assert jac.shape == (8, model.nx, model.nu)
+    saturated = np.abs(u) > model.n_max
+    assert saturated.any() and (~saturated).any()
+    for i in range(8):
+        fd = central_differences(model, x[i], u[i], wrt="u")
+        scale = np.abs(fd).max()
+        np.testing.assert_allclose(jac[i], fd, rtol=1e-6, atol=1e-7 * scale)
+        np.testing.assert_array_equal(jac[i][:, saturated[i]], 0.0)
+    np.testing.assert_array_equal(model.input_jacobian(0.0, x[0], u[0]), jac[0])
+    if not model.thruster_lag:  # eq. (7): column i = M^-1 B_i (2 K1 |n| - K2 v_a sign n)
+        va = x[:, 6:12] @ model.allocation
+        slope = (2 * model.K1 * np.abs(u) - model.K2 * va * np.sign(u)) * ~saturated
+        expected = np.einsum("ab,bj,nj->naj", model.minv, model.allocation, slope)
+        np.testing.assert_allclose(jac[:, 6:12], expected, rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(jac[:, :6], 0.0)
+
+
 # ------------------------------------------------------------------ thrusters
 def test_allocation_columns_from_geometry(rov: Vehicle) -> None:
     B = rov.allocation
@@ -342,7 +379,7 @@ def test_thruster_lag_states(rov: Vehicle) -> None:
 
 
 # ------------------------------------------------------------------- estimation
-@pytest.mark.parametrize("option", ["plain", "lag", "all"])
+@pytest.mark.parametrize("option", ["plain", "lag", "all", "full", "full_lag"])
 def test_regressors_reproduce_f(option: str) -> None:
     model = load_vehicle("bluerov2_heavy", **OPTIONS[option])
     x, u = random_states(model, 30, seed=21)
@@ -455,3 +492,90 @@ def test_bad_constructor_arguments_name_the_argument(rov: Vehicle) -> None:
         rov.f(0.0, np.zeros((2, 11)), np.zeros((2, 8)))
     with pytest.raises(ValueError, match="`u`"):
         rov.f(0.0, np.zeros((2, 12)), np.zeros((2, 7)))
+
+
+# ------------------------------------------------------------- full-matrix files
+REXROV_TEXT = (resources.files("sampledyn.models") / "vehicles" / "rexrov.toml").read_text(
+    encoding="utf-8"
+)
+_DL_FULL = (
+    "linear_damping = { value = [[13.7, 0, 0, 0, 0, 0], [0, 1.0, 0, 0, 0, 0], "
+    "[0, 0, 33.0, 0, 0, 0], [0, 0, 0, 0.1, 0, 0], [0, 0, 0, 0, 0.8, 0], "
+    '[0, 0, 0, 0, 0, 0.1]], unit = ["N s/m", "N s/rad", "N s", "N m s/rad"], source = "test" }'
+)
+
+
+def test_full_matrix_file_loads(tmp_path) -> None:
+    start = BUILTIN_TEXT.index("linear_damping = {")
+    end = BUILTIN_TEXT.index("\n", start)
+    text = BUILTIN_TEXT[:start] + _DL_FULL + BUILTIN_TEXT[end:]
+    model = load_vehicle(write(tmp_path, text))
+    assert np.shape(model.linear_damping) == (6, 6)
+    np.testing.assert_array_equal(
+        model.linear_damping_matrix, np.diag([13.7, 1.0, 33.0, 0.1, 0.8, 0.1])
+    )
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "match"),
+    [
+        # beyond the printed-digits tolerance: refused, naming the field and the pair
+        ("10.775, 21.019", "10.875, 21.019", r"`hydrodynamics.added_mass`.*\[2, 5\] = 10.774"),
+        # M not positive definite
+        ("[779.79,", "[-3000.0,", r"`hydrodynamics.added_mass`.*not positive definite"),
+        # wrong shape: a row of 5
+        ("-7.8033, 62.726, 10.775,", "62.726, 10.775,", r"`hydrodynamics.added_mass`.*6 x 6"),
+        # non-finite entry
+        ("409.44, -5.8488", "nan, -5.8488", r"`hydrodynamics.added_mass\[1\]\[3\]`.*finite"),
+        # wrong block units
+        (
+            'unit = ["kg", "kg m", "kg m", "kg m^2"]',
+            'unit = ["kg", "kg", "kg", "kg m^2"]',
+            "blocks",
+        ),
+        # inertia tensor not positive definite
+        ("[-1.44, 794.20, 2.6]", "[-1.44, -794.20, 2.6]", r"`rigid_body.inertia`.*positive def"),
+        # inertia beyond the symmetry tolerance
+        ("[-1.44, 794.20, 2.6]", "[-1.54, 794.20, 2.6]", r"`rigid_body.inertia`.*\[0, 1\]"),
+    ],
+)
+def test_bad_matrix_file_names_the_field(tmp_path, old: str, new: str, match: str) -> None:
+    assert old in REXROV_TEXT
+    path = write(tmp_path, REXROV_TEXT.replace(old, new, 1))
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "vehicle file", UserWarning)
+        with pytest.raises(ValueError, match=match):
+            load_vehicle(path)
+
+
+@pytest.mark.parametrize(
+    ("replace_with", "match"),
+    [
+        # damping that feeds energy in: symmetric part not positive semi-definite
+        (_DL_FULL.replace("[0, 1.0, 0, 0, 0, 0]", "[40.0, 1.0, 0, 0, 0, 0]"), "dissipate"),
+        # quadratic damping is diagonal
+        (
+            _DL_FULL.replace("linear_damping", "quadratic_damping").replace(
+                '["N s/m", "N s/rad", "N s", "N m s/rad"]', '"N s^2/m^2"'
+            ),
+            "diagonal",
+        ),
+    ],
+)
+def test_bad_damping_matrix_names_the_field(tmp_path, replace_with: str, match: str) -> None:
+    key = replace_with.split(" =")[0]
+    start = BUILTIN_TEXT.index(f"{key} = {{")
+    end = BUILTIN_TEXT.index("\n", start)
+    path = write(tmp_path, BUILTIN_TEXT[:start] + replace_with + BUILTIN_TEXT[end:])
+    with pytest.raises(ValueError, match=rf"`hydrodynamics.{key}`.*{match}"):
+        load_vehicle(path)
+
+
+def test_published_asymmetry_warns_naming_field_and_pair() -> None:
+    with pytest.warns(UserWarning) as record:
+        model = load_vehicle("rexrov")
+    messages = [str(w.message) for w in record]
+    assert len(messages) == 1
+    assert "field `hydrodynamics.added_mass`" in messages[0]
+    assert "[2, 5] = 10.774 vs [5, 2] = 10.775 (difference 0.001, 9.3e-05 relative)" in messages[0]
+    assert model.added_mass_matrix[2, 5] == model.added_mass_matrix[5, 2] == 0.5 * (10.774 + 10.775)

@@ -24,24 +24,39 @@ import numpy as np
 from numba import njit
 
 from ._base import RHS_SIG, CompiledModel
-from ._vehicle_kernels import vehicle_rhs
+from ._vehicle_kernels import vehicle_rhs, vehicle_switch
 
 __all__ = ["AttitudeHold"]
 
 
+# p = [len(p_vehicle), p_vehicle..., G (N x 12, row-major)]: the loop computes the
+# applied rpm n = u + G x[:12] and calls the plant's own kernels with it, so the
+# vehicle kernel knows nothing about the controller.
+
+
+@njit(cache=True)
+def _applied(x, u, p):  # pragma: no cover - compiled
+    nv = int(p[0])
+    nt = u.shape[0]
+    g0 = 1 + nv
+    n = np.empty(nt)
+    for i in range(nt):
+        acc = u[i]
+        for j in range(12):
+            acc += p[g0 + 12 * i + j] * x[j]
+        n[i] = acc
+    return n
+
+
+@njit(RHS_SIG, cache=True)
+def _hold_rhs(t, x, u, p, out):  # pragma: no cover - compiled
+    vehicle_rhs(t, x, _applied(x, u, p), p[1 : 1 + int(p[0])], out)
+
+
 @njit(RHS_SIG, cache=True)
 def _hold_switch(t, x, u, p, out):  # pragma: no cover - compiled
-    # |v| v damping and the applied rpm n = u + G x in n |n| (p: the vehicle's
-    # parameters, then the feedback flag and G, as read by vehicle_rhs).
-    nt = int(p[0])
-    g0 = p.shape[0] - 12 * nt
-    for k in range(6):
-        out[k] = x[6 + k]
-    for i in range(nt):
-        n = u[i]
-        for j in range(12):
-            n += p[g0 + 12 * i + j] * x[j]
-        out[6 + i] = n
+    # The plant's switching values (|v| v, n |n|, saturation) at the applied rpm.
+    vehicle_switch(t, x, _applied(x, u, p), p[1 : 1 + int(p[0])], out)
 
 
 @dataclass(frozen=True)
@@ -122,18 +137,19 @@ class AttitudeHold(CompiledModel):
         return f"{self.vehicle.name} + attitude hold"
 
     def _p(self) -> np.ndarray:
-        # The vehicle kernel's optional feedback block: flag, then G (N x 12).
         pv = np.asarray(self.vehicle.kernel()[1], dtype=float)
         feedback = np.zeros((self.gains.shape[0], 12))
         feedback[:, [3, 4, 9, 10]] = self.gains
-        return np.concatenate([pv, [1.0], feedback.ravel()])
+        return np.concatenate([[float(pv.shape[0])], pv, feedback.ravel()])
 
     def kernel(self) -> tuple[Any, np.ndarray]:
-        return vehicle_rhs, self._p()
+        return _hold_rhs, self._p()
 
     def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
-        """Zero crossings of the velocities and of the applied rpm."""
-        return _hold_switch, self._p(), np.zeros(6 + self.gains.shape[0], dtype=bool)
+        """The vehicle's switching values at the applied rpm."""
+        _, _, input_only = self.vehicle.switch_kernel()
+        # the applied rpm depend on the state through the feedback
+        return _hold_switch, self._p(), np.zeros_like(input_only)
 
     def applied_rpm(self, x: Any, u_ref: Any) -> np.ndarray:
         """Applied rpm n = n_ref + Delta n(x), shape (N, N_thr)."""

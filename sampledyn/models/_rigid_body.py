@@ -66,8 +66,11 @@ def rigid_body_mass_matrix(mass: float, inertia: Any, r_G: Any) -> np.ndarray:
     ----------
     mass : float
         Mass m (kg).
-    inertia : array_like, shape (3,)
-        Principal moments (I_x, I_y, I_z) about the centre of gravity, body axes (kg m^2).
+    inertia : array_like, shape (3,) or (3, 3)
+        Inertia about the centre of gravity in body axes (kg m^2): the moments
+        (I_x, I_y, I_z) of a diagonal tensor, or the full tensor
+        ``I_g = [[I_x, -I_xy, -I_xz], [-I_xy, I_y, -I_yz], [-I_xz, -I_yz, I_z]]``
+        (Fossen 2011, eq. 3.33; the products I_xy = int x y dm enter with a minus).
     r_G : array_like, shape (3,)
         Centre of gravity in body axes (m).
 
@@ -80,7 +83,12 @@ def rigid_body_mass_matrix(mass: float, inertia: Any, r_G: Any) -> np.ndarray:
     m_rb[:3, :3] = mass * np.eye(3)
     m_rb[:3, 3:] = -mass * s
     m_rb[3:, :3] = mass * s
-    m_rb[3:, 3:] = np.diag(np.asarray(inertia, dtype=float)) - mass * s @ s
+    i_g = np.asarray(inertia, dtype=float)
+    if i_g.shape == (3,):
+        i_g = np.diag(i_g)
+    elif i_g.shape != (3, 3):
+        raise ValueError(f"`inertia` must have shape (3,) or (3, 3), got {i_g.shape}.")
+    m_rb[3:, 3:] = i_g - mass * s @ s
     return m_rb
 
 

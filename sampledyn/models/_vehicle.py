@@ -3,22 +3,30 @@
     eta' = J(eta) (v + v_c)                                                (6)
     v'   = M^-1 (-C(v) v - D(v) v + g(eta) + tau + tau_c)                  (5)
     tau  = B T,   T_i = K1 n_i |n_i| - K2 v_a,i |n_i|                      (7)
-    n'   = (n_r - n) / T_n        (optional thruster lag, eq. (3))
+    n_i  = sat(u_i) = min(max(u_i, -n_max), n_max)   (thruster saturation)
+    n'   = (sat(n_r) - n) / T_n   (optional thruster lag, eq. (3))
 
-* ``M = M_RB + M_A``: rigid body about the body origin CO (mass, inertia about the
-  centre of gravity r_G) plus diagonal added mass.
-* ``C(v) = C_RB(v) + C_A(v)`` from the blocks of M (Fossen 2011, eqs. 3.46, 6.43).
-* ``D(v) = D_l + D_q |v|`` (diagonal, positive coefficients).
+* ``M = M_RB + M_A``: rigid body about the body origin CO (mass, inertia tensor
+  about the centre of gravity r_G, with products of inertia) plus the added mass
+  M_A, diagonal or a full symmetric 6 x 6 matrix.
+* ``C(v) = C_RB(v) + C_A(v)``, both from the 3 x 3 blocks of the symmetric M in
+  the skew-symmetric form of Fossen 2011, Theorem 3.2 (eq. 3.46) and eq. 6.43:
+  with ``(a, b) = M v``, ``C(v) = [[0, -S(a)], [-S(a), -S(b)]]``; M is linear in
+  its parts, so this is C_RB(v) from M_RB plus C_A(v) from the full M_A.
+* ``D(v) = D_l + diag(d_q) |v|``: linear damping diagonal or a full 6 x 6 matrix,
+  quadratic damping diagonal per degree of freedom (Fossen 2011, ch. 6; as in
+  uuv_simulator's ``HMFossen::ComputeDampingMatrix``).
 * ``g(eta)`` = restoring force of weight W = m g at r_G and buoyancy B = rho g V at
   r_B, with the paper's sign (added in eq. (5), i.e. minus Fossen's eq. 4.6).
 * ``J(eta) = diag(R(Theta), T(Theta))`` with ZYX Euler angles; singular at
   theta = +-90 deg.
 * Thrusters: T_i along the unit axis d_i at r_i; the allocation B (6 x N) has
   columns ``[d_i; r_i x d_i]`` and ``v_a,i = B[:, i] . v`` is the thruster's body
-  velocity along its axis. The input is the thruster rpm (rev/min). The inflow term
-  is ``K2 v_a |n|`` (Fossen 2011, eq. 6.116 form ``T_|n|Va |n| V_a``): the paper's
-  ``K2 v^T n`` read literally as ``K2 v_a n`` would make a thruster spinning in
-  reverse *gain* thrust when the vehicle moves the way it pushes.
+  velocity along its axis. The input is the thruster rpm (rev/min), saturated at
+  n_max. The inflow term is ``K2 v_a |n|`` (Fossen 2011, eq. 6.116 form
+  ``T_|n|Va |n| V_a``): the paper's ``K2 v^T n`` read literally as ``K2 v_a n``
+  would make a thruster spinning in reverse *gain* thrust when the vehicle moves
+  the way it pushes.
 
 State ``x = (eta, v)`` (12) or ``(eta, v, n)`` (12 + N) with the lag option.
 """
@@ -33,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ._base import CompiledModel, LinearForm
+from ._base import CompiledModel, LinearForm, _as_batch, readonly
 from ._rigid_body import (
     check_pitch,
     coriolis_matrix,
@@ -42,9 +50,15 @@ from ._rigid_body import (
     rotation_jacobian,
     thruster_allocation,
 )
-from ._vehicle_kernels import pack_params, vehicle_jac, vehicle_rhs
+from ._vehicle_kernels import (
+    batch_input_jac,
+    pack_params,
+    vehicle_jac,
+    vehicle_rhs,
+    vehicle_switch,
+)
 
-__all__ = ["Vehicle"]
+__all__ = ["SYMMETRY_RTOL", "Vehicle", "VehicleParameterError"]
 
 _ETA_NAMES = ("x", "y", "z", "phi", "theta", "psi")
 _V_NAMES = ("u", "v", "w", "p", "q", "r")
@@ -53,7 +67,8 @@ _V_UNITS = ("m/s", "m/s", "m/s", "rad/s", "rad/s", "rad/s")
 
 # Scalar parameter names (Fossen / SNAME notation). The hydrodynamic coefficients are
 # stored as positive magnitudes: M_A = diag(X_udot, ...), D_l = diag(X_u, ...),
-# D_q = diag(X_uu, ...); Fossen's X_udot, X_u, X_|u|u are minus these.
+# D_q = diag(X_uu, ...); Fossen's X_udot, X_u, X_|u|u are minus these. With a full
+# M_A or D_l these names are its diagonal entries.
 ADDED_MASS_NAMES = ("X_udot", "Y_vdot", "Z_wdot", "K_pdot", "M_qdot", "N_rdot")
 LINEAR_DAMPING_NAMES = ("X_u", "Y_v", "Z_w", "K_p", "M_q", "N_r")
 QUADRATIC_DAMPING_NAMES = ("X_uu", "Y_vv", "Z_ww", "K_pp", "M_qq", "N_rr")
@@ -61,12 +76,28 @@ _ADDED_MASS_UNITS = ("kg",) * 3 + ("kg m^2",) * 3
 _LINEAR_UNITS = ("N s/m",) * 3 + ("N m s/rad",) * 3
 _QUADRATIC_UNITS = ("N s^2/m^2",) * 3 + ("N m s^2/rad^2",) * 3
 
-# name -> (field, index or None)
-_PARAMS: dict[str, tuple[str, int | None]] = {
+QUADRATIC_IS_DIAGONAL = (
+    "is diagonal, D_n(v) = diag(d_q) |v| (as in Fossen's and uuv_simulator's models): "
+    "give its 6 diagonal entries."
+)
+
+# A published symmetric matrix (inertia tensor, added mass) is often symmetric only to
+# the digits it is printed with: the pair (i, j), (j, i) is replaced by its mean when
+# |A_ij - A_ji| <= SYMMETRY_RTOL max(|A_ij|, |A_ji|), with a warning; a larger
+# difference is refused. 1e-3 covers rounding in the 4th significant digit.
+SYMMETRY_RTOL = 1e-3
+
+# name -> (field, index): an int is entry i of a vector (the diagonal entry (i, i) of
+# a matrix); a pair (i, j) is a product of inertia, I_ij = -I_g[i, j] (Fossen 2011,
+# eq. 3.33).
+_PARAMS: dict[str, tuple[str, int | tuple[int, int] | None]] = {
     "mass": ("mass", None),
     "Ix": ("inertia", 0),
     "Iy": ("inertia", 1),
     "Iz": ("inertia", 2),
+    "Ixy": ("inertia", (0, 1)),
+    "Ixz": ("inertia", (0, 2)),
+    "Iyz": ("inertia", (1, 2)),
     "x_G": ("r_G", 0),
     "y_G": ("r_G", 1),
     "z_G": ("r_G", 2),
@@ -86,9 +117,7 @@ _PARAMS: dict[str, tuple[str, int | None]] = {
 }
 PARAM_UNITS: dict[str, str] = {
     "mass": "kg",
-    "Ix": "kg m^2",
-    "Iy": "kg m^2",
-    "Iz": "kg m^2",
+    **{n: "kg m^2" for n in ("Ix", "Iy", "Iz", "Ixy", "Ixz", "Iyz")},
     **{n: "m" for n in ("x_G", "y_G", "z_G", "x_B", "y_B", "z_B")},
     "volume": "m^3",
     "rho": "kg/m^3",
@@ -111,13 +140,65 @@ class VehicleParameterError(ValueError):
         self.argument = argument
 
 
-def _vector(name: str, value: Any, size: int) -> tuple[float, ...]:
-    a = np.asarray(value, dtype=float) if not isinstance(value, str) else None
-    if a is None or a.shape != (size,):
-        raise VehicleParameterError(name, f"`{name}` must be {size} numbers, got {value!r}.")
-    if not np.isfinite(a).all():
-        raise VehicleParameterError(name, f"`{name}` must be finite, got {value!r}.")
-    return tuple(float(c) for c in a)
+def _array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) -> np.ndarray:
+    """``value`` as a finite float array of one of ``shapes``."""
+    want = " or ".join(str(s) for s in shapes)
+    try:
+        a = np.array(value, dtype=float) if not isinstance(value, str) else None
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape not in shapes:
+        got = a.shape if a is not None else repr(value)
+        raise VehicleParameterError(name, f"`{name}` must have shape {want}, got {got}.")
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        at = ", ".join(str(int(i)) for i in bad[0])
+        raise VehicleParameterError(name, f"`{name}[{at}]` must be finite, got {a[tuple(bad[0])]}.")
+    return a
+
+
+def _frozen(a: np.ndarray) -> tuple[Any, ...]:
+    """A 1-D or 2-D array as a tuple (of tuples) of floats."""
+    if a.ndim == 1:
+        return tuple(float(c) for c in a)
+    return tuple(tuple(float(c) for c in row) for row in a)
+
+
+def _symmetrized(name: str, a: np.ndarray, stacklevel: int) -> np.ndarray:
+    """``a`` made exactly symmetric by the printed-digits rule of :data:`SYMMETRY_RTOL`.
+
+    Raises VehicleParameterError naming the worst pair beyond the tolerance; warns
+    with every pair it averages.
+    """
+    diff = np.abs(a - a.T)
+    scale = np.maximum(np.abs(a), np.abs(a.T))
+    rows, cols = np.triu_indices(a.shape[0], 1)
+    d, sc = diff[rows, cols], scale[rows, cols]
+    beyond = d > SYMMETRY_RTOL * sc
+    if beyond.any():
+        k = int(np.argmax(np.where(beyond, d / np.where(sc > 0, sc, 1.0), -1.0)))
+        i, j = int(rows[k]), int(cols[k])
+        raise VehicleParameterError(
+            name,
+            f"`{name}` must be symmetric: [{i}, {j}] = {a[i, j]:.6g} and [{j}, {i}] = "
+            f"{a[j, i]:.6g} differ by {d[k]:.3g} ({d[k] / sc[k]:.2g} relative), more than "
+            f"the {SYMMETRY_RTOL:g} relative tolerance for printed digits; correct the "
+            "matrix.",
+        )
+    pairs = np.flatnonzero(d > 0)
+    if pairs.size:
+        shown = "; ".join(
+            f"[{rows[k]}, {cols[k]}] = {a[rows[k], cols[k]]:.6g} vs [{cols[k]}, {rows[k]}] = "
+            f"{a[cols[k], rows[k]]:.6g} (difference {d[k]:.3g}, {d[k] / sc[k]:.2g} relative)"
+            for k in pairs
+        )
+        warnings.warn(
+            f"`{name}` is symmetric only to its printed digits: {shown}; within the "
+            f"{SYMMETRY_RTOL:g} relative tolerance, so the mean (A + A^T)/2 is used.",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+    return 0.5 * (a + a.T)
 
 
 def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -133,29 +214,62 @@ def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = Fal
     return v
 
 
+def _component(value: Any, idx: int | tuple[int, int]) -> float:
+    """Parameter ``idx`` (see ``_PARAMS``) of a vector or matrix field."""
+    a = np.asarray(value, dtype=float)
+    if isinstance(idx, tuple):
+        return 0.0 if a.ndim == 1 else float(-a[idx])
+    return float(a[idx] if a.ndim == 1 else a[idx, idx])
+
+
+def _with_component(value: Any, idx: int | tuple[int, int], new: Any) -> np.ndarray:
+    """A copy of a vector or matrix field with parameter ``idx`` set to ``new``."""
+    a = np.array(value, dtype=float)
+    if isinstance(idx, tuple):
+        if a.ndim == 1:
+            a = np.diag(a)
+        a[idx] = a[idx[::-1]] = -float(new)
+    elif a.ndim == 1:
+        a[idx] = new
+    else:
+        a[idx, idx] = new
+    return a
+
+
+def _as_matrix(value: tuple[Any, ...], size: int) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    return np.diag(a) if a.shape == (size,) else a
+
+
 @dataclass(frozen=True)
 class Vehicle(CompiledModel):
     """6-DoF underwater vehicle in Fossen form, eqs. (5)-(7), input = thruster rpm.
 
     Usually built from a vehicle file by :func:`sampledyn.models.load_vehicle`.
-    Array-like arguments are stored as tuples; the model is immutable and
-    :meth:`with_params` returns a changed copy.
+    Array-like arguments are stored as tuples (matrices as tuples of rows); the model
+    is immutable and :meth:`with_params` returns a changed copy.
 
     Parameters
     ----------
     mass : float
         Mass m (kg).
-    inertia : array_like, shape (3,)
-        Principal moments (I_x, I_y, I_z) about the centre of gravity (kg m^2).
+    inertia : array_like, shape (3,) or (3, 3)
+        Inertia about the centre of gravity in body axes (kg m^2): the moments
+        (I_x, I_y, I_z) of a diagonal tensor, or the full symmetric positive definite
+        tensor ``[[I_x, -I_xy, -I_xz], [-I_xy, I_y, -I_yz], [-I_xz, -I_yz, I_z]]``
+        (Fossen 2011, eq. 3.33).
     r_G, r_B : array_like, shape (3,)
         Centres of gravity and buoyancy in body axes from the body origin (m).
     volume : float
         Displaced volume V (m^3); buoyancy B = rho g V.
-    added_mass : array_like, shape (6,)
-        Positive added-mass magnitudes, ``M_A = diag(added_mass)`` (kg, kg m^2).
-    linear_damping, quadratic_damping : array_like, shape (6,)
-        ``D(v) = diag(linear_damping) + diag(quadratic_damping) |v|``
-        (N s/m, N m s/rad; N s^2/m^2, N m s^2/rad^2).
+    added_mass : array_like, shape (6,) or (6, 6)
+        Added mass M_A, positive magnitudes: ``diag(added_mass)`` or the full
+        symmetric matrix (kg, kg m, kg m^2 by block).
+    linear_damping : array_like, shape (6,) or (6, 6)
+        D_l, ``diag(linear_damping)`` or the full matrix (N s/m, N s/rad, N s,
+        N m s/rad by block).
+    quadratic_damping : array_like, shape (6,)
+        d_q of the diagonal ``D_n(v) = diag(d_q) |v|`` (N s^2/m^2, N m s^2/rad^2).
     thruster_positions, thruster_directions : array_like, shape (N, 3)
         Thruster positions r_i (m) and unit thrust axes d_i (body axes); a positive
         rpm pushes the vehicle along d_i.
@@ -164,7 +278,9 @@ class Vehicle(CompiledModel):
     K2 : float
         Inflow coefficient of eq. (7) (N s/(m rpm)); the paper's matrix is K2 I.
     n_max : float
-        Maximum thruster speed (rpm); informational (inputs in % of it, Fig. 6).
+        Maximum thruster speed (rpm). The thrusters saturate there: the applied rpm
+        is ``clip(n, -n_max, n_max)`` (a kink the exact simulator locates), and
+        :func:`sampledyn.simulate` warns when the command exceeds it.
     rho : float
         Water density (kg/m^3). Default 1000.
     g : float
@@ -172,7 +288,7 @@ class Vehicle(CompiledModel):
     lag_time_constant : float
         T_n of the first-order thruster lag (s), used when ``thruster_lag``.
     thruster_lag : bool
-        Model eq. (3) as ``n' = (n_r - n) / T_n`` with the N rpm as extra states;
+        Model eq. (3) as ``n' = (sat(n_r) - n) / T_n`` with the N rpm as extra states;
         off by default (the paper's case study treats it as parasitic).
     current : array_like, shape (6,)
         Constant current v_c (m/s, rad/s). With ``current_frame="body"`` (default)
@@ -194,15 +310,29 @@ class Vehicle(CompiledModel):
         Label.
     sources : mapping, optional
         Where each parameter came from (filled by the vehicle-file loader).
+
+    Raises
+    ------
+    VehicleParameterError (a ValueError)
+        Naming the argument: wrong shape, non-finite value, an inertia tensor or
+        M = M_RB + M_A that is not symmetric positive definite, a symmetric matrix
+        whose mirror entries differ by more than :data:`SYMMETRY_RTOL` (relative).
+
+    Warns
+    -----
+    UserWarning
+        When ``inertia`` or ``added_mass`` is symmetric only within
+        :data:`SYMMETRY_RTOL`: each such pair is replaced by its mean (named in the
+        warning) and the symmetric matrix is stored.
     """
 
     mass: float
-    inertia: tuple[float, ...]
+    inertia: tuple[Any, ...]
     r_G: tuple[float, ...]
     r_B: tuple[float, ...]
     volume: float
-    added_mass: tuple[float, ...]
-    linear_damping: tuple[float, ...]
+    added_mass: tuple[Any, ...]
+    linear_damping: tuple[Any, ...]
     quadratic_damping: tuple[float, ...]
     thruster_positions: tuple[tuple[float, ...], ...]
     thruster_directions: tuple[tuple[float, ...], ...]
@@ -234,8 +364,9 @@ class Vehicle(CompiledModel):
 
     @property
     def kink_states(self) -> tuple[int, ...]:
-        """State indices inside ``|.|`` (damping |v| v; thruster n |n| with lag): the
-        simulator ends its internal steps where they cross zero."""
+        """State indices inside ``|.|`` (damping |v| v; thruster n |n| with lag). The
+        complete set of switching values, with the saturation, is
+        :meth:`switch_kernel`."""
         lag = tuple(range(12, 12 + self.n_thrusters)) if self.thruster_lag else ()
         return tuple(range(6, 12)) + lag
 
@@ -247,20 +378,42 @@ class Vehicle(CompiledModel):
     def __post_init__(self) -> None:
         put = object.__setattr__
         put(self, "mass", _scalar("mass", self.mass, positive=True))
-        inertia = _vector("inertia", self.inertia, 3)
-        if min(inertia) <= 0:
-            raise VehicleParameterError("inertia", f"`inertia` must be > 0, got {inertia}.")
-        put(self, "inertia", inertia)
+        inertia = _array("inertia", self.inertia, ((3,), (3, 3)))
+        if inertia.ndim == 1 and inertia.min() <= 0:
+            raise VehicleParameterError(
+                "inertia", f"`inertia` must be > 0, got {_frozen(inertia)}."
+            )
+        if inertia.ndim == 2:
+            inertia = _symmetrized("inertia", inertia, stacklevel=4)
+            eig = np.linalg.eigvalsh(inertia)
+            if eig.min() <= 0:
+                raise VehicleParameterError(
+                    "inertia",
+                    "`inertia` must be a positive definite tensor, its eigenvalues are "
+                    f"{np.round(eig, 6).tolist()} kg m^2.",
+                )
+        put(self, "inertia", _frozen(inertia))
+        added = _array("added_mass", self.added_mass, ((6,), (6, 6)))
+        if added.ndim == 2:
+            added = _symmetrized("added_mass", added, stacklevel=4)
+        put(self, "added_mass", _frozen(added))
+        put(
+            self,
+            "linear_damping",
+            _frozen(_array("linear_damping", self.linear_damping, ((6,), (6, 6)))),
+        )
+        if np.shape(self.quadratic_damping) == (6, 6):
+            raise VehicleParameterError(
+                "quadratic_damping", f"`quadratic_damping` {QUADRATIC_IS_DIAGONAL}"
+            )
         for name, size in (
             ("r_G", 3),
             ("r_B", 3),
-            ("added_mass", 6),
-            ("linear_damping", 6),
             ("quadratic_damping", 6),
             ("current", 6),
             ("cable_force", 6),
         ):
-            put(self, name, _vector(name, getattr(self, name), size))
+            put(self, name, _frozen(_array(name, getattr(self, name), ((size,),))))
         put(self, "volume", _scalar("volume", self.volume, nonneg=True))
         for name in ("rho", "g", "n_max", "lag_time_constant"):
             put(self, name, _scalar(name, getattr(self, name), positive=True))
@@ -316,8 +469,8 @@ class Vehicle(CompiledModel):
         put(self, "thruster_positions", tuple(tuple(float(c) for c in r) for r in pos))
         put(self, "thruster_directions", tuple(tuple(float(c) for c in d) for d in dirs))
 
-        m_rb = rigid_body_mass_matrix(self.mass, self.inertia, self.r_G)
-        M = m_rb + np.diag(self.added_mass)
+        m_rb = rigid_body_mass_matrix(self.mass, self.inertia_tensor, self.r_G)
+        M = m_rb + self.added_mass_matrix
         if not np.allclose(M, M.T, rtol=0.0, atol=1e-12 * np.abs(M).max()):
             raise VehicleParameterError("added_mass", "M = M_RB + M_A is not symmetric.")
         try:
@@ -343,11 +496,12 @@ class Vehicle(CompiledModel):
             lag_time_constant=self.lag_time_constant,
             K1=self.K1,
             K2=self.K2,
+            n_max=self.n_max,
             W=W,
             B=Bf,
             r_G=np.asarray(self.r_G),
             r_B=np.asarray(self.r_B),
-            linear_damping=np.asarray(self.linear_damping),
+            linear_damping=self.linear_damping_matrix,
             quadratic_damping=np.asarray(self.quadratic_damping),
             cable_force=np.asarray(self.cable_force),
             current_body=current if self.current_frame == "body" else zeros,
@@ -377,11 +531,16 @@ class Vehicle(CompiledModel):
     # ------------------------------------------------------------------ attributes
     @property
     def params(self) -> dict[str, float]:
-        """Scalar parameters by name (units in :attr:`param_units`)."""
+        """Scalar parameters by name (units in :attr:`param_units`).
+
+        With a full M_A or D_l the hydrodynamic names are its diagonal entries;
+        ``Ixy``, ``Ixz``, ``Iyz`` are the products of inertia (Fossen's sign: the
+        tensor holds ``-Ixy``), zero for a diagonal inertia.
+        """
         out = {}
         for name, (fld, idx) in _PARAMS.items():
             value = getattr(self, fld)
-            out[name] = float(value if idx is None else value[idx])
+            out[name] = float(value) if idx is None else _component(value, idx)
         return out
 
     @property
@@ -391,7 +550,8 @@ class Vehicle(CompiledModel):
     def with_params(self, **values: Any) -> Vehicle:
         """The same vehicle with some parameters or options changed.
 
-        Accepts the scalar names of :attr:`params` (e.g. ``X_u=10.0``, ``mass=14``)
+        Accepts the scalar names of :attr:`params` (e.g. ``X_u=10.0``, ``mass=14``,
+        ``Ixy=1.4``; a diagonal entry of a full matrix keeps its off-diagonal part)
         and the constructor arguments (e.g. ``thruster_lag=True``,
         ``cable_force=(5, 0, 0, 0, 0, 0)``).
         """
@@ -403,7 +563,7 @@ class Vehicle(CompiledModel):
                 f"constructor arguments {sorted(field_names)}."
             )
         changes: dict[str, Any] = {}
-        vectors: dict[str, list[float]] = {}
+        parts: dict[str, Any] = {}
         for name, value in values.items():
             if name in field_names:
                 changes[name] = value
@@ -412,13 +572,27 @@ class Vehicle(CompiledModel):
             if idx is None:
                 changes[fld] = value
             else:
-                vec = vectors.setdefault(fld, list(getattr(self, fld)))
-                vec[idx] = value
-        for fld, vec in vectors.items():
+                parts[fld] = _with_component(parts.get(fld, getattr(self, fld)), idx, value)
+        for fld, value in parts.items():
             if fld in changes:
                 raise TypeError(f"`{fld}` given both whole and by component.")
-            changes[fld] = tuple(vec)
+            changes[fld] = value
         return replace(self, **changes)
+
+    @property
+    def inertia_tensor(self) -> np.ndarray:
+        """I_g about the centre of gravity, shape (3, 3) (kg m^2)."""
+        return _as_matrix(self.inertia, 3)
+
+    @property
+    def added_mass_matrix(self) -> np.ndarray:
+        """M_A, shape (6, 6) (kg, kg m, kg m^2)."""
+        return _as_matrix(self.added_mass, 6)
+
+    @property
+    def linear_damping_matrix(self) -> np.ndarray:
+        """D_l, shape (6, 6) (N s/m, N s/rad, N s, N m s/rad)."""
+        return _as_matrix(self.linear_damping, 6)
 
     @property
     def mass_matrix(self) -> np.ndarray:
@@ -451,17 +625,27 @@ class Vehicle(CompiledModel):
         return coriolis_matrix(self._M, v)
 
     def damping(self, v: Any) -> np.ndarray:
-        """D(v) = D_l + D_q |v|, shape (N, 6, 6) (or (6, 6)); diagonal."""
+        """D(v) = D_l + diag(d_q) |v|, shape (N, 6, 6) (or (6, 6))."""
         v = np.asarray(v, dtype=float)
         if v.shape[-1:] != (6,) or v.ndim > 2:
             raise ValueError(f"`v` must have shape (N, 6) or (6,), got {v.shape}.")
-        diag = np.asarray(self.linear_damping) + np.asarray(self.quadratic_damping) * np.abs(v)
-        return diag[..., :, None] * np.eye(6)
+        quad = np.asarray(self.quadratic_damping) * np.abs(v)
+        return self.linear_damping_matrix + quad[..., :, None] * np.eye(6)
+
+    def input_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper limits of the inputs, each shape (nu,) (rpm): the thrusters
+        saturate at -n_max and n_max (:func:`sampledyn.simulate` warns beyond them)."""
+        return np.full(self.nu, -self.n_max), np.full(self.nu, self.n_max)
+
+    def saturate(self, u: Any) -> np.ndarray:
+        """The applied rpm ``clip(u, -n_max, n_max)``, the shape of ``u``."""
+        return np.clip(np.asarray(u, dtype=float), -self.n_max, self.n_max)
 
     def thrust(self, x: Any, u: Any) -> np.ndarray:
         """Thruster forces T of eq. (7) (N), shape (N, n_thrusters) (or (n_thrusters,)).
 
-        The rpm are ``u`` (or the lag states of ``x`` when ``thruster_lag``).
+        The rpm are the saturated ``u`` (or the lag states of ``x`` when
+        ``thruster_lag``).
         """
         xb = np.atleast_2d(np.asarray(x, dtype=float))
         if xb.shape[-1] != self.nx:
@@ -469,7 +653,7 @@ class Vehicle(CompiledModel):
         if self.thruster_lag:
             n = xb[:, 12:]
         else:
-            n = np.broadcast_to(np.asarray(u, dtype=float), (xb.shape[0], self.nu))
+            n = np.broadcast_to(self.saturate(u), (xb.shape[0], self.nu))
         va = xb[:, 6:12] @ self._alloc
         t = self.K1 * n * np.abs(n) - self.K2 * va * np.abs(n)
         return t[0] if np.ndim(x) == 1 else t
@@ -480,6 +664,20 @@ class Vehicle(CompiledModel):
 
     def jacobian_kernel(self) -> tuple[Any, np.ndarray]:
         return vehicle_jac, self._p
+
+    def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
+        """Switching values for :func:`sampledyn.simulate`: ``(sw, p, input_only)``.
+
+        ``sw(t, x, u, p, out)`` writes 6 + 3 N values whose zero crossings are where f
+        is not smooth: the body velocities (|v| v), the rpm inside n |n| (lag states,
+        or the inputs), and ``u_i - n_max``, ``u_i + n_max`` (saturation).
+        ``input_only`` (bool, shape (6 + 3 N,)) marks the values that depend on u only.
+        """
+        nt = self.n_thrusters
+        input_only = np.array(
+            [False] * 6 + [not self.thruster_lag] * nt + [True] * (2 * nt), dtype=bool
+        )
+        return vehicle_switch, self._p, input_only
 
     def _pitch_guard(self, theta: Any, stacklevel: int = 3) -> None:
         past, worst = check_pitch(theta, self.pitch_tolerance_deg, self.pitch_limit_deg)
@@ -506,7 +704,8 @@ class Vehicle(CompiledModel):
         x : ndarray, shape (N, nx) or (nx,)
             States ``(eta, v[, n])``.
         u : ndarray, shape (N, nu) or (nu,)
-            Thruster rpm (references n_r with the lag option).
+            Thruster rpm commands (references n_r with the lag option), saturated at
+            n_max.
 
         Returns
         -------
@@ -525,11 +724,39 @@ class Vehicle(CompiledModel):
 
         Rows/columns follow the state ``(eta, v[, n])``: the blocks are
         ``df_eta/deta`` (18), ``df_eta/dv = J(eta)`` (17), ``df_v/deta = M^-1 dg/deta``
-        (14), ``df_v/dv`` (13) including the thruster term ``-K2 B diag(|n|) B^T`` (16),
-        and with the lag option ``df_v/dn`` and ``-I/T_n``.
+        (14), ``df_v/dv`` (13) including ``-M^-1 (D_l + diag(2 d_q |v|))`` and the
+        thruster term ``-K2 B diag(|n|) B^T`` (16) at the saturated rpm, and with the
+        lag option ``df_v/dn`` and ``-I/T_n``.
         """
         self._guard_x(x)
         return super().jacobian(t, x, u)
+
+    def input_jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """Analytic ``df/du``, shape (N, nx, nu) (or (nx, nu) for one state).
+
+        Without the lag option column i is ``M^-1 B[:, i] (2 K1 |n_i| - K2 v_a,i
+        sign(n_i))`` in the v rows (the derivative of eq. (7)); with it the only
+        non-zero entry is ``d n_i'/d u_i = 1/T_n``. Both are multiplied by the
+        saturation's slope: 1 for |u_i| <= n_max, 0 beyond (the one-sided value at
+        the corner). Units: (m/s^2, rad/s^2 or rpm/s) per rpm.
+
+        Parameters
+        ----------
+        t : float or ndarray, shape (N,)
+            Times (s); unused (time-invariant).
+        x : ndarray, shape (N, nx) or (nx,)
+        u : ndarray, shape (N, nu) or (nu,)
+
+        Raises
+        ------
+        ValueError
+            For wrong shapes, or some |theta| within ``pitch_tolerance_deg`` of 90 deg.
+        """
+        self._guard_x(x)
+        _, xx, uu, single = _as_batch(t, x, u, self.nx, self.nu)
+        check_pitch(xx[:, 4], self.pitch_tolerance_deg)
+        out = batch_input_jac(readonly(xx), readonly(uu), readonly(self._p))
+        return out[0] if single else out
 
     def jac_v_v(self, t: Any, x: Any, u: Any) -> np.ndarray:
         """df_v/dv, eq. (13) with (16); shape (N, 6, 6)."""
@@ -549,12 +776,13 @@ class Vehicle(CompiledModel):
 
     # ---------------------------------------------------------------- estimation
     def regressors(self, t: Any, x: Any, u: Any) -> LinearForm:
-        """``f = Phi @ theta + f0`` with theta = the 12 damping coefficients.
+        """``f = Phi @ theta + f0`` with theta = the 12 diagonal damping coefficients.
 
         theta = (X_u, Y_v, Z_w, K_p, M_q, N_r, X_uu, Y_vv, Z_ww, K_pp, M_qq, N_rr).
-        Since ``f_v = M^-1(... - D_l v - D_q |v| v)``, the v rows of Phi are
+        Since ``f_v = M^-1(... - D_l v - diag(d_q) |v| v)``, the v rows of Phi are
         ``-M^-1 diag(v)`` and ``-M^-1 diag(|v| v)``; the eta (and lag) rows are zero.
-        f0 is f of the same vehicle with zero damping.
+        f0 is f of the same vehicle with the diagonal of D_l and d_q set to zero (the
+        off-diagonal part of a full D_l stays in f0).
 
         Returns
         -------
@@ -563,7 +791,9 @@ class Vehicle(CompiledModel):
         xb = np.atleast_2d(np.asarray(x, dtype=float))
         if xb.ndim != 2 or xb.shape[1] != self.nx:
             raise ValueError(f"`x` must have shape (N, {self.nx}), got {np.shape(x)}.")
-        undamped = self.with_params(linear_damping=(0.0,) * 6, quadratic_damping=(0.0,) * 6)
+        d_l = np.asarray(self.linear_damping, dtype=float)
+        off_diagonal = d_l - np.diag(np.diag(d_l)) if d_l.ndim == 2 else np.zeros(6)
+        undamped = self.with_params(linear_damping=off_diagonal, quadratic_damping=(0.0,) * 6)
         f0 = np.atleast_2d(undamped.f(t, xb, u))
         v = xb[:, 6:12]
         phi = np.zeros((xb.shape[0], self.nx, 12))

@@ -12,9 +12,11 @@ The format is described in the header of the built-in file
     position = { value = [0.156, 0.111, 0.085], unit = "m", source = "CAD" }
     direction = { value = [0.7071, -0.7071, 0.0], unit = "1", source = "CAD" }
 
-No unit conversion is done: each number must carry the unit listed in ``_SCHEMA``.
-Every problem raises ValueError naming the field (``rigid_body.mass``,
-``thruster[3].direction``, ...).
+Matrices are lists of rows: ``inertia`` a 3 x 3 tensor, ``added_mass`` and
+``linear_damping`` 6 x 6 matrices with the units of their four 3 x 3 blocks
+(see ``_SCHEMA``). No unit conversion is done: each number must carry the unit
+listed in ``_SCHEMA``. Every problem raises ValueError naming the field
+(``rigid_body.mass``, ``thruster[3].direction``, ``hydrodynamics.added_mass[2][5]``).
 """
 
 from __future__ import annotations
@@ -22,46 +24,57 @@ from __future__ import annotations
 import math
 import os
 import tomllib
+import warnings
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from ._vehicle import Vehicle, VehicleParameterError
+import numpy as np
+
+from ._vehicle import QUADRATIC_IS_DIAGONAL, Vehicle, VehicleParameterError
 
 __all__ = ["builtin_vehicles", "load_vehicle"]
 
 _L6 = ("kg", "kg", "kg", "kg m^2", "kg m^2", "kg m^2")
 _D6 = ("N s/m",) * 3 + ("N m s/rad",) * 3
 _Q6 = ("N s^2/m^2",) * 3 + ("N m s^2/rad^2",) * 3
+# Units of the 3 x 3 blocks [[11, 12], [21, 22]] of a 6 x 6 matrix, in this order
+# (force / moment rows, linear / angular velocity or acceleration columns).
+_MA_BLOCKS = ("kg", "kg m", "kg m", "kg m^2")
+_DL_BLOCKS = ("N s/m", "N s/rad", "N s", "N m s/rad")
 
-# table -> key -> (Vehicle argument, unit(s), size (0 = scalar), required)
-_SCHEMA: dict[str, dict[str, tuple[str, str | tuple[str, ...], int, bool]]] = {
+_Units = str | tuple[str, ...]
+# table -> key -> (Vehicle argument, {accepted shape: unit(s)}, required)
+_SCHEMA: dict[str, dict[str, tuple[str, dict[tuple[int, ...], _Units], bool]]] = {
     "environment": {
-        "rho": ("rho", "kg/m^3", 0, True),
-        "g": ("g", "m/s^2", 0, True),
+        "rho": ("rho", {(): "kg/m^3"}, True),
+        "g": ("g", {(): "m/s^2"}, True),
     },
     "rigid_body": {
-        "mass": ("mass", "kg", 0, True),
-        "inertia": ("inertia", "kg m^2", 3, True),
-        "r_G": ("r_G", "m", 3, True),
-        "r_B": ("r_B", "m", 3, True),
-        "volume": ("volume", "m^3", 0, True),
+        "mass": ("mass", {(): "kg"}, True),
+        "inertia": ("inertia", {(3,): "kg m^2", (3, 3): "kg m^2"}, True),
+        "r_G": ("r_G", {(3,): "m"}, True),
+        "r_B": ("r_B", {(3,): "m"}, True),
+        "volume": ("volume", {(): "m^3"}, True),
     },
     "hydrodynamics": {
-        "added_mass": ("added_mass", _L6, 6, True),
-        "linear_damping": ("linear_damping", _D6, 6, True),
-        "quadratic_damping": ("quadratic_damping", _Q6, 6, True),
+        "added_mass": ("added_mass", {(6,): _L6, (6, 6): _MA_BLOCKS}, True),
+        "linear_damping": ("linear_damping", {(6,): _D6, (6, 6): _DL_BLOCKS}, True),
+        "quadratic_damping": ("quadratic_damping", {(6,): _Q6}, True),
     },
     "thruster_model": {
-        "K1": ("K1", "N/rpm^2", 0, True),
-        "K2": ("K2", "N s/(m rpm)", 0, True),
-        "n_max": ("n_max", "rpm", 0, True),
-        "lag_time_constant": ("lag_time_constant", "s", 0, False),
+        "K1": ("K1", {(): "N/rpm^2"}, True),
+        "K2": ("K2", {(): "N s/(m rpm)"}, True),
+        "n_max": ("n_max", {(): "rpm"}, True),
+        "lag_time_constant": ("lag_time_constant", {(): "s"}, False),
     },
 }
-_THRUSTER = {"position": ("m", 3), "direction": ("1", 3)}
+_THRUSTER: dict[str, dict[tuple[int, ...], _Units]] = {
+    "position": {(3,): "m"},
+    "direction": {(3,): "1"},
+}
 _TOP = {"name", "description", "thruster", *_SCHEMA}
-_NONNEGATIVE = {"linear_damping", "quadratic_damping"}
+_DAMPING = {"linear_damping", "quadratic_damping"}
 
 
 def _fail(path: Any, fld: str, message: str) -> ValueError:
@@ -76,8 +89,29 @@ def _number(path: Any, fld: str, value: Any) -> float:
     return float(value)
 
 
+def _shape(value: Any) -> tuple[int, ...] | None:
+    """Shape of a number, a list of numbers or a list of equal-length lists."""
+    if not isinstance(value, list):
+        return ()
+    if value and all(isinstance(row, list) for row in value):
+        if len({len(row) for row in value}) != 1:
+            return None
+        return (len(value), len(value[0]))
+    if any(isinstance(c, list) for c in value):
+        return None
+    return (len(value),)
+
+
+def _describe(shape: tuple[int, ...]) -> str:
+    if shape == ():
+        return "a number"
+    if len(shape) == 1:
+        return f"a list of {shape[0]} numbers"
+    return f"a {shape[0]} x {shape[1]} matrix (a list of {shape[0]} rows of {shape[1]})"
+
+
 def _quantity(
-    path: Any, fld: str, entry: Any, unit: str | tuple[str, ...], size: int
+    path: Any, fld: str, entry: Any, units: dict[tuple[int, ...], _Units]
 ) -> tuple[Any, str]:
     """Check ``{ value, unit, source }``; return (value, source)."""
     if not isinstance(entry, dict):
@@ -95,19 +129,58 @@ def _quantity(
     source = entry["source"]
     if not isinstance(source, str) or not source.strip():
         raise _fail(path, fld, "`source` must be a non-empty string.")
-    want = unit if isinstance(unit, tuple) else (unit,) * max(size, 1)
-    got = entry["unit"]
-    if isinstance(got, str) and (size == 0 or len(set(want)) == 1):
-        got = (got,) * len(want)
-    if not isinstance(got, tuple | list) or tuple(got) != want:
-        shown = want[0] if len(set(want)) == 1 else list(want)
-        raise _fail(path, fld, f"unit must be {shown!r}, got {entry['unit']!r} (no conversion).")
     value = entry["value"]
-    if size == 0:
+    shape = _shape(value)
+    if shape not in units:
+        if fld.endswith("quadratic_damping") and shape == (6, 6):
+            raise _fail(path, fld, f"quadratic damping {QUADRATIC_IS_DIAGONAL}")
+        allowed = " or ".join(_describe(s) for s in units)
+        raise _fail(path, fld, f"`value` must be {allowed}, got {value!r}.")
+    want = units[shape]
+    got = entry["unit"]
+    if isinstance(want, tuple) and isinstance(got, str) and len(set(want)) == 1:
+        got = (got,) * len(want)
+    if isinstance(got, list):
+        got = tuple(got)
+    if got != want:
+        shown = want if isinstance(want, str) else list(want)
+        what = (
+            " (units of the blocks [[11, 12], [21, 22]])"
+            if len(shape) == 2 and len(want) == 4
+            else ""
+        )
+        raise _fail(
+            path, fld, f"unit must be {shown!r}{what}, got {entry['unit']!r} (no conversion)."
+        )
+    if shape == ():
         return _number(path, fld, value), source
-    if not isinstance(value, list) or len(value) != size:
-        raise _fail(path, fld, f"`value` must be a list of {size} numbers, got {value!r}.")
-    return tuple(_number(path, f"{fld}[{i}]", c) for i, c in enumerate(value)), source
+    if len(shape) == 1:
+        return tuple(_number(path, f"{fld}[{i}]", c) for i, c in enumerate(value)), source
+    return (
+        tuple(
+            tuple(_number(path, f"{fld}[{i}][{j}]", c) for j, c in enumerate(row))
+            for i, row in enumerate(value)
+        ),
+        source,
+    )
+
+
+def _check_damping(path: Any, fld: str, value: Any) -> None:
+    """Damping must dissipate: v^T D v >= 0, i.e. (D + D^T)/2 positive semi-definite
+    (for a diagonal D, entries >= 0)."""
+    d = np.asarray(value, dtype=float)
+    if d.ndim == 1:
+        if d.min() < 0:
+            raise _fail(path, fld, f"damping must be >= 0, got {value}.")
+        return
+    eig = np.linalg.eigvalsh(0.5 * (d + d.T))
+    if eig.min() < -1e-12 * np.abs(d).max():
+        raise _fail(
+            path,
+            fld,
+            "damping must dissipate energy (v^T D_l v >= 0): the symmetric part of the "
+            f"matrix has the eigenvalue {eig.min():.6g} < 0.",
+        )
 
 
 def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
@@ -134,15 +207,15 @@ def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
         if unknown:
             key = sorted(unknown)[0]
             raise _fail(path, f"{table}.{key}", f"unknown key; allowed: {sorted(spec)}.")
-        for key, (arg, unit, size, required) in spec.items():
+        for key, (arg, units, required) in spec.items():
             fld = f"{table}.{key}"
             if key not in content:
                 if required:
                     raise _fail(path, fld, "missing.")
                 continue
-            value, source = _quantity(path, fld, content[key], unit, size)
-            if arg in _NONNEGATIVE and min(value) < 0:
-                raise _fail(path, fld, f"damping must be >= 0, got {value}.")
+            value, source = _quantity(path, fld, content[key], units)
+            if arg in _DAMPING:
+                _check_damping(path, fld, value)
             kwargs[arg] = value
             sources[arg] = source
     thrusters = data.get("thruster")
@@ -163,10 +236,10 @@ def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
             )
         if "name" in th and not isinstance(th["name"], str):
             raise _fail(path, f"{base}.name", "must be a string.")
-        for key, (unit, size) in _THRUSTER.items():
+        for key, units in _THRUSTER.items():
             if key not in th:
                 raise _fail(path, f"{base}.{key}", "missing.")
-            value, source = _quantity(path, f"{base}.{key}", th[key], unit, size)
+            value, source = _quantity(path, f"{base}.{key}", th[key], units)
             (positions if key == "position" else directions).append(value)
             sources[f"{base}.{key}"] = source
     kwargs["thruster_positions"] = tuple(positions)
@@ -246,7 +319,16 @@ def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehi
         raise ValueError(f"vehicle file {where}: not valid TOML: {exc}") from None
     kwargs = _parse(where, data)
     try:
-        vehicle = Vehicle(**kwargs)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            vehicle = Vehicle(**kwargs)
     except VehicleParameterError as exc:
         raise _fail(where, _file_field(exc.argument), str(exc)) from None
+    for w in caught:  # name the file's field (a matrix symmetrised to printed digits)
+        message = str(w.message)
+        for arg in ("inertia", "added_mass"):
+            message = message.replace(
+                f"`{arg}`", f"vehicle file {where}: field `{_file_field(arg)}`"
+            )
+        warnings.warn(message, w.category, stacklevel=2)
     return vehicle.with_params(**overrides) if overrides else vehicle

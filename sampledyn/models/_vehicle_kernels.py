@@ -1,16 +1,23 @@
-"""Compiled right-hand side and Jacobian of the 6-DoF vehicle, eqs. (3)-(7), (13)-(18).
+"""Compiled right-hand side and Jacobians of the 6-DoF vehicle, eqs. (3)-(7), (13)-(18).
 
 One state at a time, scalar code without heap allocation: the same kernel is
 called by the exact-sample integrator and, over a batch, by ``Vehicle.f``.
 
     eta' = J(eta) (v + v_c,body) + v_c,ned                                 (6)
     v'   = M^-1 (-C(v) v - D(v) v + g(eta) + B T(n, v) + tau_c)            (5)
+    D(v) = D_l + diag(d_q) |v|       (D_l full 6 x 6, quadratic part diagonal)
     T_i  = K1 n_i |n_i| - K2 v_a,i |n_i|, v_a,i = B[:, i] . v              (7)
-    n'   = (n_r - n) / T_n          (thruster lag, eq. (3); optional)
+    n_i  = sat(u_i) = min(max(u_i, -n_max), n_max)   (thruster saturation)
+    n'   = (sat(u) - n) / T_n        (thruster lag, eq. (3); optional)
+
+With the lag option the saturated command drives the lag and the thrust comes from
+the lagged rpm (as uuv_simulator's ThrusterPlugin clamps its command before the
+rotor dynamics).
 
 All parameters travel in one float64 array ``p`` with the layout below (``N`` is
 the number of thrusters; ``B`` is stored thruster by thruster,
-``B[k, i] = p[_ALLOC + 6 i + k]``).
+``B[k, i] = p[_ALLOC + 6 i + k]``; matrices row-major). The kernels read nothing
+past ``_ALLOC + 6 N``.
 """
 
 from __future__ import annotations
@@ -18,9 +25,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import float64, njit
 
-from ._base import JAC_SIG, RHS_SIG
+from ._base import JAC_SIG, RHS_SIG, RO1, RO2
 
 # Layout of the parameter array p.
 _N = 0  # number of thrusters
@@ -30,21 +37,17 @@ _K1 = 3  # N/rpm^2
 _K2 = 4  # N s/(m rpm)
 _W = 5  # weight (N)
 _BUOY = 6  # buoyancy (N)
-_RG = 7  # r_G (3, m)
-_RB = 10  # r_B (3, m)
-_DL = 13  # linear damping diag (6)
-_DQ = 19  # quadratic damping diag (6)
-_TAUC = 25  # cable force (6, body frame)
-_VCB = 31  # current added inside J(eta)(v + v_c) (6, body frame)
-_VCN = 37  # current added to eta' (6, NED / Euler-rate frame)
-_M = 43  # M row-major (36)
-_MINV = 79  # M^-1 row-major (36)
-_ALLOC = 115  # B (6 N), column i at _ALLOC + 6 i
-_HEADER = _ALLOC
-# Optional, after the allocation: a flag (1.0) and a linear state feedback G (N x 12,
-# row-major) added to the rpm inputs, n = u + G x[:12]. The vehicle itself never
-# sets it; a closed-loop wrapper (sampledyn.models.AttitudeHold) does, so that the
-# loop costs no extra call or allocation in the compiled right-hand side.
+_NMAX = 7  # saturation n_max (rpm)
+_RG = 8  # r_G (3, m)
+_RB = 11  # r_B (3, m)
+_DQ = 14  # quadratic damping diag (6)
+_TAUC = 20  # cable force (6, body frame)
+_VCB = 26  # current added inside J(eta)(v + v_c) (6, body frame)
+_VCN = 32  # current added to eta' (6, NED / Euler-rate frame)
+_DL = 38  # linear damping D_l row-major (36)
+_M = 74  # M row-major (36)
+_MINV = 110  # M^-1 row-major (36)
+_ALLOC = 146  # B (6 N), column i at _ALLOC + 6 i
 
 
 def pack_params(
@@ -54,6 +57,7 @@ def pack_params(
     lag_time_constant: float,
     K1: float,
     K2: float,
+    n_max: float,
     W: float,
     B: float,
     r_G: np.ndarray,
@@ -67,27 +71,42 @@ def pack_params(
     Minv: np.ndarray,
     allocation: np.ndarray,
 ) -> np.ndarray:
-    """The parameter array ``p`` of the kernels (read-only copy)."""
-    p = np.zeros(_HEADER + 6 * n_thrusters)
+    """The parameter array ``p`` of the kernels (read-only copy).
+
+    ``linear_damping`` is the full D_l, shape (6, 6); ``quadratic_damping`` the
+    diagonal d_q, shape (6,).
+    """
+    p = np.zeros(_ALLOC + 6 * n_thrusters)
     p[_N] = n_thrusters
     p[_LAG] = 1.0 if lag else 0.0
     p[_TN] = lag_time_constant
     p[_K1] = K1
     p[_K2] = K2
+    p[_NMAX] = n_max
     p[_W] = W
     p[_BUOY] = B
     p[_RG : _RG + 3] = r_G
     p[_RB : _RB + 3] = r_B
-    p[_DL : _DL + 6] = linear_damping
     p[_DQ : _DQ + 6] = quadratic_damping
     p[_TAUC : _TAUC + 6] = cable_force
     p[_VCB : _VCB + 6] = current_body
     p[_VCN : _VCN + 6] = current_ned
-    p[_M : _M + 36] = np.asarray(M, dtype=float).ravel()
-    p[_MINV : _MINV + 36] = np.asarray(Minv, dtype=float).ravel()
+    p[_DL : _DL + 36] = np.asarray(linear_damping, dtype=float).reshape(36)
+    p[_M : _M + 36] = np.asarray(M, dtype=float).reshape(36)
+    p[_MINV : _MINV + 36] = np.asarray(Minv, dtype=float).reshape(36)
     p[_ALLOC : _ALLOC + 6 * n_thrusters] = np.asarray(allocation, dtype=float).T.ravel()
     p.setflags(write=False)
     return p
+
+
+@njit(cache=True, error_model="numpy")
+def _saturate(n, n_max):  # pragma: no cover - compiled
+    """The applied rpm min(max(n, -n_max), n_max)."""
+    if n > n_max:
+        return n_max
+    if n < -n_max:
+        return -n_max
+    return n
 
 
 @njit(cache=True, error_model="numpy")
@@ -110,6 +129,28 @@ def _mass_times_v(x, p):  # pragma: no cover - compiled
     return a0, a1, a2, b0, b1, b2
 
 
+@njit(cache=True, error_model="numpy")
+def _thruster_column(x, p, i):  # pragma: no cover - compiled
+    """Column i of B, ``[d_i; r_i x d_i]``, and v_a,i = B[:, i] . v."""
+    c0 = p[_ALLOC + 6 * i + 0]
+    c1 = p[_ALLOC + 6 * i + 1]
+    c2 = p[_ALLOC + 6 * i + 2]
+    c3 = p[_ALLOC + 6 * i + 3]
+    c4 = p[_ALLOC + 6 * i + 4]
+    c5 = p[_ALLOC + 6 * i + 5]
+    va = c0 * x[6] + c1 * x[7] + c2 * x[8] + c3 * x[9] + c4 * x[10] + c5 * x[11]
+    return c0, c1, c2, c3, c4, c5, va
+
+
+@njit(cache=True, error_model="numpy")
+def _damping_row(x, p, k):  # pragma: no cover - compiled
+    """Row k of D(v) v = D_l v + d_q |v| v."""
+    acc = p[_DQ + k] * abs(x[6 + k]) * x[6 + k]
+    for j in range(6):
+        acc += p[_DL + 6 * k + j] * x[6 + j]
+    return acc
+
+
 @njit(RHS_SIG, cache=True, error_model="numpy")
 def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     """x' = f(t, x, u; p) for one state; writes ``out`` (shape (nx,))."""
@@ -117,6 +158,7 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     lag = p[_LAG] > 0.5
     k1 = p[_K1]
     k2 = p[_K2]
+    n_max = p[_NMAX]
 
     phi = x[3]
     theta = x[4]
@@ -167,35 +209,32 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     wb = wgt - buoy
 
     # generalized force r = -C v - D v + g + tau_c (thrust added below)
-    r0 = -(vq * a2 - vr * a1) + wb * kx + p[_TAUC]
-    r1 = -(vr * a0 - vp * a2) + wb * ky + p[_TAUC + 1]
-    r2 = -(vp * a1 - vq * a0) + wb * kz + p[_TAUC + 2]
-    r3 = -(vv * a2 - vw * a1 + vq * b2 - vr * b1) + (hy * kz - hz * ky) + p[_TAUC + 3]
-    r4 = -(vw * a0 - vu * a2 + vr * b0 - vp * b2) + (hz * kx - hx * kz) + p[_TAUC + 4]
-    r5 = -(vu * a1 - vv * a0 + vp * b1 - vq * b0) + (hx * ky - hy * kx) + p[_TAUC + 5]
-    r0 -= (p[_DL] + p[_DQ] * abs(vu)) * vu
-    r1 -= (p[_DL + 1] + p[_DQ + 1] * abs(vv)) * vv
-    r2 -= (p[_DL + 2] + p[_DQ + 2] * abs(vw)) * vw
-    r3 -= (p[_DL + 3] + p[_DQ + 3] * abs(vp)) * vp
-    r4 -= (p[_DL + 4] + p[_DQ + 4] * abs(vq)) * vq
-    r5 -= (p[_DL + 5] + p[_DQ + 5] * abs(vr)) * vr
+    r0 = -(vq * a2 - vr * a1) + wb * kx + p[_TAUC] - _damping_row(x, p, 0)
+    r1 = -(vr * a0 - vp * a2) + wb * ky + p[_TAUC + 1] - _damping_row(x, p, 1)
+    r2 = -(vp * a1 - vq * a0) + wb * kz + p[_TAUC + 2] - _damping_row(x, p, 2)
+    r3 = (
+        -(vv * a2 - vw * a1 + vq * b2 - vr * b1)
+        + (hy * kz - hz * ky)
+        + p[_TAUC + 3]
+        - _damping_row(x, p, 3)
+    )
+    r4 = (
+        -(vw * a0 - vu * a2 + vr * b0 - vp * b2)
+        + (hz * kx - hx * kz)
+        + p[_TAUC + 4]
+        - _damping_row(x, p, 4)
+    )
+    r5 = (
+        -(vu * a1 - vv * a0 + vp * b1 - vq * b0)
+        + (hx * ky - hy * kx)
+        + p[_TAUC + 5]
+        - _damping_row(x, p, 5)
+    )
 
     # --- thrusters, eq. (7), tau = B T
-    fb = _ALLOC + 6 * nt  # optional state feedback on the rpm input
-    feedback = p.shape[0] > fb and p[fb] > 0.5
     for i in range(nt):
-        n = x[12 + i] if lag else u[i]
-        if feedback and not lag:
-            g = fb + 1 + 12 * i
-            for j in range(12):
-                n += p[g + j] * x[j]
-        c0 = p[_ALLOC + 6 * i + 0]
-        c1 = p[_ALLOC + 6 * i + 1]
-        c2 = p[_ALLOC + 6 * i + 2]
-        c3 = p[_ALLOC + 6 * i + 3]
-        c4 = p[_ALLOC + 6 * i + 4]
-        c5 = p[_ALLOC + 6 * i + 5]
-        va = c0 * vu + c1 * vv + c2 * vw + c3 * vp + c4 * vq + c5 * vr
+        n = x[12 + i] if lag else _saturate(u[i], n_max)
+        c0, c1, c2, c3, c4, c5, va = _thruster_column(x, p, i)
         thrust = k1 * n * abs(n) - k2 * va * abs(n)
         r0 += c0 * thrust
         r1 += c1 * thrust
@@ -218,7 +257,26 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     if lag:
         inv_tn = 1.0 / p[_TN]
         for i in range(nt):
-            out[12 + i] = (u[i] - x[12 + i]) * inv_tn
+            out[12 + i] = (_saturate(u[i], n_max) - x[12 + i]) * inv_tn
+
+
+@njit(RHS_SIG, cache=True, error_model="numpy")
+def vehicle_switch(t, x, u, p, out):  # pragma: no cover - compiled
+    """Switching values: zero where f is not smooth, one state at a time.
+
+    out (6 + 3 N): the body velocities (|v| v damping), the rpm inside n |n| (lag
+    states, or the inputs without the lag option), then u_i - n_max and u_i + n_max
+    (the saturation's corners).
+    """
+    nt = int(p[_N])
+    lag = p[_LAG] > 0.5
+    n_max = p[_NMAX]
+    for k in range(6):
+        out[k] = x[6 + k]
+    for i in range(nt):
+        out[6 + i] = x[12 + i] if lag else u[i]
+        out[6 + nt + i] = u[i] - n_max
+        out[6 + 2 * nt + i] = u[i] + n_max
 
 
 @njit(cache=True, error_model="numpy")
@@ -236,6 +294,15 @@ def _minv_column(p, out, col, c0, c1, c2, c3, c4, c5):  # pragma: no cover - com
         )
 
 
+@njit(cache=True, error_model="numpy")
+def _thrust_column(x, p, out, col, i, n):  # pragma: no cover - compiled
+    """out[6:12, col] = M^-1 B[:, i] dT_i/dn with dT/dn = 2 K1 |n| - K2 v_a sign(n)."""
+    c0, c1, c2, c3, c4, c5, va = _thruster_column(x, p, i)
+    sign = 1.0 if n > 0 else (-1.0 if n < 0 else 0.0)
+    s = 2.0 * p[_K1] * abs(n) - p[_K2] * va * sign
+    _minv_column(p, out, col, c0 * s, c1 * s, c2 * s, c3 * s, c4 * s, c5 * s)
+
+
 @njit(JAC_SIG, cache=True, error_model="numpy")
 def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
     """df/dx for one state; writes ``out`` (shape (nx, nx)).
@@ -245,8 +312,8 @@ def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
     nt = int(p[_N])
     lag = p[_LAG] > 0.5
     nx = out.shape[0]
-    k1 = p[_K1]
     k2 = p[_K2]
+    n_max = p[_NMAX]
     for i in range(nx):
         for j in range(nx):
             out[i, j] = 0.0
@@ -394,30 +461,29 @@ def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
             d1 += a0
             d3 -= b1
             d4 += b0
-        c0 = -d0
-        c1 = -d1
-        c2 = -d2
-        c3 = -d3
-        c4 = -d4
-        c5 = -d5
-        # damping: d(D(v) v)/dv = diag(D_l + 2 D_q |v|)
-        vj = x[6 + j]
-        dd = p[_DL + j] + 2.0 * p[_DQ + j] * abs(vj)
+        # damping: d(D(v) v)/dv = D_l + diag(2 d_q |v|)
+        c0 = -d0 - p[_DL + j]
+        c1 = -d1 - p[_DL + 6 + j]
+        c2 = -d2 - p[_DL + 12 + j]
+        c3 = -d3 - p[_DL + 18 + j]
+        c4 = -d4 - p[_DL + 24 + j]
+        c5 = -d5 - p[_DL + 30 + j]
+        dq = 2.0 * p[_DQ + j] * abs(x[6 + j])
         if j == 0:
-            c0 -= dd
+            c0 -= dq
         elif j == 1:
-            c1 -= dd
+            c1 -= dq
         elif j == 2:
-            c2 -= dd
+            c2 -= dq
         elif j == 3:
-            c3 -= dd
+            c3 -= dq
         elif j == 4:
-            c4 -= dd
+            c4 -= dq
         else:
-            c5 -= dd
+            c5 -= dq
         # thrusters: d tau / dv = -K2 B diag(|n|) B^T, eq. (16)
         for i in range(nt):
-            n = x[12 + i] if lag else u[i]
+            n = x[12 + i] if lag else _saturate(u[i], n_max)
             s = -k2 * abs(n) * p[_ALLOC + 6 * i + j]
             c0 += p[_ALLOC + 6 * i + 0] * s
             c1 += p[_ALLOC + 6 * i + 1] * s
@@ -428,17 +494,40 @@ def vehicle_jac(t, x, u, p, out):  # pragma: no cover - compiled
         _minv_column(p, out, 6 + j, c0, c1, c2, c3, c4, c5)
 
     if lag:
-        # d f_v / d n = M^-1 B diag(2 K1 |n| - K2 v_a sign(n)), and the lag rows, eq. (3)
+        # d f_v / d n = M^-1 B diag(dT/dn), and the lag rows, eq. (3)
         inv_tn = 1.0 / p[_TN]
         for i in range(nt):
-            n = x[12 + i]
-            c0 = p[_ALLOC + 6 * i + 0]
-            c1 = p[_ALLOC + 6 * i + 1]
-            c2 = p[_ALLOC + 6 * i + 2]
-            c3 = p[_ALLOC + 6 * i + 3]
-            c4 = p[_ALLOC + 6 * i + 4]
-            c5 = p[_ALLOC + 6 * i + 5]
-            va = c0 * vu + c1 * vv + c2 * vw + c3 * vp + c4 * vq + c5 * vr
-            s = 2.0 * k1 * abs(n) - k2 * va * (1.0 if n > 0 else (-1.0 if n < 0 else 0.0))
-            _minv_column(p, out, 12 + i, c0 * s, c1 * s, c2 * s, c3 * s, c4 * s, c5 * s)
+            _thrust_column(x, p, out, 12 + i, i, x[12 + i])
             out[12 + i, 12 + i] = -inv_tn
+
+
+@njit(JAC_SIG, cache=True, error_model="numpy")
+def vehicle_input_jac(t, x, u, p, out):  # pragma: no cover - compiled
+    """df/du for one state; writes ``out`` (shape (nx, nu)).
+
+    d sat(u)/du is 1 on [-n_max, n_max] and 0 outside. Without the lag option the
+    input enters through the thrust, column i = M^-1 B[:, i] dT_i/dn; with it only
+    the lag row, d n_i'/d u_i = 1/T_n.
+    """
+    nt = int(p[_N])
+    lag = p[_LAG] > 0.5
+    n_max = p[_NMAX]
+    for a in range(out.shape[0]):
+        for b in range(out.shape[1]):
+            out[a, b] = 0.0
+    for i in range(nt):
+        inside = 1.0 if abs(u[i]) <= n_max else 0.0
+        if lag:
+            out[12 + i, i] = inside / p[_TN]
+        elif inside > 0.0:
+            _thrust_column(x, p, out, i, i, u[i])
+
+
+@njit(float64[:, :, ::1](RO2, RO2, RO1), cache=True)
+def batch_input_jac(x, u, p):  # pragma: no cover - compiled
+    """vehicle_input_jac over a batch: x (N, nx), u (N, nu) -> (N, nx, nu)."""
+    n, nx = x.shape
+    out = np.empty((n, nx, u.shape[1]))
+    for k in range(n):
+        vehicle_input_jac(0.0, x[k], u[k], p, out[k])
+    return out

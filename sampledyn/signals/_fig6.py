@@ -12,6 +12,24 @@ A row's mean pushes in its labelled direction on this vehicle: the sign of each
 thruster's rpm is chosen from its axis (positive rpm pushes along the axis), so "up"
 means thrust towards -z (NED, body z down), "down" towards +z and "forward" towards
 +x. The sinusoids get the same sign (a phase shift of pi where the sign flips).
+
+On the built-in vehicles (thrusters numbered as in their files):
+
+============  ======================================  ===================================
+row (Fig. 6)  bluerov2_heavy                          rexrov
+============  ======================================  ===================================
+1, 2 (up)     T5, T6 (front verticals, z axis)        T1, T2 (rear verticals, 15.5 deg
+                                                      tilt; uuv_simulator ids 0, 1)
+3, 4 (down)   T7, T8 (rear verticals)                 T3, T4 (front verticals; ids 2, 3)
+5, 6 (fwd)    T1, T2 (front, vectored 45 deg)         T5, T6 (rear, vectored 45 deg;
+                                                      ids 4, 5)
+7, 8 (fwd)    T3, T4 (rear, axis pointing aft: the    T7, T8 (front, axis pointing aft;
+              rows' negative rpm push forward)        ids 6, 7; negative rpm push forward)
+============  ======================================  ===================================
+
+The paper does not give its thruster layout, so which end of the vehicle the "up"
+rows act on is a convention (file order): on the BlueROV2 Heavy their mean thrust
+raises the bow, on the RexROV the stern.
 """
 
 from __future__ import annotations
