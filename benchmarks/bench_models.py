@@ -40,14 +40,16 @@ import sampledyn as sd
 from sampledyn.models._base import _batch_rhs, readonly
 
 
-def best_per_call(fn, calls: int, repeat: int = 7) -> float:
-    """Best mean time per call (s) over ``repeat`` loops of ``calls`` calls."""
-    best = float("inf")
+def best_per_call(fns: dict, calls: int, repeat: int = 9) -> dict[str, float]:
+    """Best mean time per call (s) of each function over ``repeat`` loops of ``calls``
+    calls, the functions interleaved so that a load change hits all of them alike."""
+    best = dict.fromkeys(fns, float("inf"))
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        for _ in range(calls):
-            fn()
-        best = min(best, (time.perf_counter() - t0) / calls)
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            for _ in range(calls):
+                fn()
+            best[name] = min(best[name], (time.perf_counter() - t0) / calls)
     return best
 
 
@@ -65,10 +67,16 @@ def python_calls(name: str, model, rng) -> dict[str, float]:
     model.f(t1, x1, u1)
     rt, rx, ru = readonly(t1), readonly(x1), readonly(u1)
     _batch_rhs(rhs, rt, rx, ru, p)
-    bare = best_per_call(lambda: rhs(0.0, x0, u0, p, out), 20000)
-    single = best_per_call(lambda: model.f(0.0, x0, u0), 20000)
-    batch1 = best_per_call(lambda: model.f(t1, x1, u1), 20000)
-    pointer1 = best_per_call(lambda: _batch_rhs(rhs, rt, rx, ru, p), 500)
+    times = best_per_call(
+        {
+            "bare": lambda: rhs(0.0, x0, u0, p, out),
+            "single": lambda: model.f(0.0, x0, u0),
+            "batch1": lambda: model.f(t1, x1, u1),
+        },
+        5000,
+    )
+    bare, single, batch1 = times["bare"], times["single"], times["batch1"]
+    pointer1 = best_per_call({"p": lambda: _batch_rhs(rhs, rt, rx, ru, p)}, 200)["p"]
     print(
         f"{name:<28} bare {bare * 1e6:6.2f} us | single {single * 1e6:6.2f} us "
         f"({single / bare:5.1f}x bare) | batch of one {batch1 * 1e6:6.2f} us "
@@ -87,8 +95,10 @@ def large_batch(name: str, model, rng, n: int) -> None:
     new = model.f(t, x, u)
     old = _batch_rhs(rhs, *args)
     same = np.array_equal(new, old)
-    t_new = best_per_call(lambda: model.f(t, x, u), 3)
-    t_old = best_per_call(lambda: _batch_rhs(rhs, *args), 3)
+    times = best_per_call(
+        {"new": lambda: model.f(t, x, u), "old": lambda: _batch_rhs(rhs, *args)}, 2, repeat=7
+    )
+    t_new, t_old = times["new"], times["old"]
     print(
         f"{name:<28} N = {n}: {t_new / n * 1e9:6.1f} ns/sample, fn-pointer "
         f"{t_old / n * 1e9:6.1f} ns/sample, ratio {t_new / t_old:4.2f} (target <= 1); "
@@ -101,13 +111,14 @@ def kernel_cost(vehicle, hold, rng, n: int) -> None:
     x = rng.normal(size=(n, 12)) * 0.1
     u = rng.normal(size=(n, vehicle.nu)) * 500.0
     t = np.zeros(n)
-    rows = {}
+    fns = {}
     for name, model in (("vehicle", vehicle), ("vehicle + attitude hold", hold)):
         rhs, p = model.kernel()
         args = readonly(t), readonly(x), readonly(u), readonly(p)
         _batch_rhs(rhs, *args)
-        rows[name] = best_per_call(lambda rhs=rhs, args=args: _batch_rhs(rhs, *args), 3) / n
-    v, c = rows["vehicle"], rows["vehicle + attitude hold"]
+        fns[name] = lambda rhs=rhs, args=args: _batch_rhs(rhs, *args)
+    rows = best_per_call(fns, 2, repeat=7)
+    v, c = rows["vehicle"] / n, rows["vehicle + attitude hold"] / n
     print(
         f"kernel per call (compiled loop): vehicle {v * 1e9:.1f} ns, closed loop "
         f"{c * 1e9:.1f} ns ({c / v:.2f}x: the law, its stack buffer and the inlined plant)"
