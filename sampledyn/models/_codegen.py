@@ -145,6 +145,7 @@ def _write_once(path: Path, source: str) -> None:
 
 _MODULES: dict[str, ModuleType] = {}
 _IN_PROCESS = itertools.count()
+_IN_PROCESS_MODULES: dict[Any, tuple[ModuleType, dict[str, Any]]] = {}
 
 
 def load_module(source: str, *, kind: str, globals_: Mapping[str, Any] | None = None) -> ModuleType:
@@ -175,10 +176,16 @@ def load_module(source: str, *, kind: str, globals_: Mapping[str, Any] | None = 
         if globals_ is None and stem in _MODULES:
             return _MODULES[stem]
         if globals_ is not None:
+            # Same source and the same injected objects: the same module (compiled once).
+            key = (stem, tuple((k, id(v)) for k, v in sorted(globals_.items())))
+            entry = _IN_PROCESS_MODULES.get(key)
+            if entry is not None:
+                return entry[0]
             module = ModuleType(f"{name}_inprocess_{next(_IN_PROCESS)}")
             module.__dict__.update(globals_)
             module.__dict__["_SAMPLEDYN_CACHE"] = False
             exec(compile(source, f"<sampledyn generated {stem}>", "exec"), module.__dict__)
+            _IN_PROCESS_MODULES[key] = (module, dict(globals_))  # keeps the ids valid
             return module
         path = cache_dir() / f"{stem}.py"
         _write_once(path, source)
