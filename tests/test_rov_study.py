@@ -130,11 +130,16 @@ def test_attitude_hold_switches_and_law(run):
     np.testing.assert_allclose(applied, u + model.gains @ x[[3, 4, 9, 10]], rtol=1e-14)
     # The closed loop is the vehicle driven by the applied rpm, bit for bit.
     assert np.array_equal(model.f(traj.t[k], x, u), model.vehicle.f(traj.t[k], x, applied))
-    # Switching values: the vehicle's velocities, then the applied rpm (in n |n|).
+    # Switching values: the vehicle's own (velocities in |v| v, rpm in n |n|, ...) at
+    # the applied rpm.
     sw, sp, input_only = model.switch_kernel()
-    out = np.empty(6 + model.vehicle.n_thrusters)
+    vsw, vsp, v_only = model.vehicle.switch_kernel()
+    assert input_only.shape == v_only.shape
+    out, ref = np.empty(input_only.size), np.empty(v_only.size)
     sw(traj.t[k], x, u, sp, out)
-    np.testing.assert_array_equal(out, np.concatenate([x[6:12], applied]))
+    vsw(traj.t[k], x, applied, vsp, ref)
+    np.testing.assert_array_equal(out, ref)
+    np.testing.assert_array_equal(out[:6], x[6:12])
     assert not input_only.any()  # through the loop, every value depends on the state
     with pytest.raises(ValueError, match="kp"):
         sd.models.AttitudeHold(model.vehicle, kp=0.0)
