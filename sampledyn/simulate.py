@@ -23,7 +23,8 @@ from numba import njit, types
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from ._trajectory import Certificate, Trajectory
-from .models._base import RHS_SIG, RHS_TYPE, RO1, RO2, readonly
+from .models._base import RHS_TYPE, RO1, RO2, readonly
+from .models._base import index_switch as _index_switch
 
 __all__ = ["IntegrationError", "simulate"]
 
@@ -68,17 +69,6 @@ def _dop_stages(rhs, p, t, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytm
         for m in range(_NS):
             acc += _B[m] * K[m, j]
         ynew[j] = y[j] + dt * acc
-
-
-@njit(RHS_SIG, cache=True)
-def _index_switch(t, x, u, sp, out):  # pragma: no cover - compiled
-    """Switching values picked from the state and input: sp = [ns, i..., nu, j...]."""
-    ns = int(sp[0])
-    for k in range(ns):
-        out[k] = x[int(sp[1 + k])]
-    nu = int(sp[1 + ns])
-    for k in range(nu):
-        out[ns + k] = u[int(sp[2 + ns + k])]
 
 
 @njit(cache=True)

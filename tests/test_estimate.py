@@ -253,7 +253,7 @@ def test_irls_converges_to_the_lp_minimum(noisy, p):
 
 def test_rank_deficiency_names_delta():
     # From x0 = 0 the position stays at 0, sin(x)^2 = 0: delta has no regressor.
-    data = sd.simulate(AUV, SIGNAL, T=10.0, h=0.02, certify=False)
+    data = sd.simulate(AUV, SIGNAL, T=10.0, h=0.02, x0=np.zeros(2), certify=False)
     assert np.all(data.x[:, 0] == 0.0)
     with pytest.raises(ValueError, match=r"delta not identifiable"):
         sd.estimate(AUV, data, "AB2")

@@ -1,13 +1,27 @@
-"""Continuous-time vehicle models: ``x' = f(t, x, u)`` with analytic Jacobians."""
+"""Continuous-time models ``x' = f(t, x, u)`` with exact Jacobians.
+
+Built-in: the paper's AUV-like system and Fossen-form vehicles (from vehicle files).
+Your own: :class:`SymbolicModel` (sympy expressions; every derived kernel cached on
+disk) or :class:`FunctionModel` (a numba-compilable function). Closed loops:
+:class:`ClosedLoop` (a plant and a continuous feedback law).
+"""
 
 from ._attitude_hold import AttitudeHold as AttitudeHold
+from ._attitude_hold import roll_pitch_hold as roll_pitch_hold
 from ._auv import AUVLike as AUVLike
 from ._base import CompiledModel as CompiledModel
+from ._base import JacobianUnavailableError as JacobianUnavailableError
 from ._base import LinearForm as LinearForm
 from ._base import Model as Model
+from ._closed_loop import ClosedLoop as ClosedLoop
+from ._closed_loop import FeedbackLaw as FeedbackLaw
+from ._closed_loop import LinearFeedback as LinearFeedback
+from ._codegen import cache_dir as cache_dir
+from ._function import FunctionModel as FunctionModel
 from ._rigid_body import rotation_jacobian as rotation_jacobian
 from ._rigid_body import rotation_jacobian_inverse as rotation_jacobian_inverse
 from ._rigid_body import thruster_allocation as thruster_allocation
+from ._symbolic import SymbolicModel as SymbolicModel
 from ._vehicle import Vehicle as Vehicle
 from ._vehicle_file import builtin_vehicles as builtin_vehicles
 from ._vehicle_file import load_vehicle as load_vehicle
@@ -15,12 +29,20 @@ from ._vehicle_file import load_vehicle as load_vehicle
 __all__ = [
     "AUVLike",
     "AttitudeHold",
+    "ClosedLoop",
     "CompiledModel",
+    "FeedbackLaw",
+    "FunctionModel",
+    "JacobianUnavailableError",
+    "LinearFeedback",
     "LinearForm",
     "Model",
+    "SymbolicModel",
     "Vehicle",
     "builtin_vehicles",
+    "cache_dir",
     "load_vehicle",
+    "roll_pitch_hold",
     "rotation_jacobian",
     "rotation_jacobian_inverse",
     "thruster_allocation",

@@ -13,60 +13,77 @@ P (N_thr x 2) maps desired roll and pitch moments (N m) to vertical thrust incre
 (minimum norm, no net heave); the division converts thrust to rpm about the operating
 point n_lin. The applied rpm ``n`` is what the thrusters turn at and what a log would
 record; the model's input is the reference ``n_ref``.
+
+The hold is a :class:`~sampledyn.models.LinearFeedback` law closed around the vehicle
+by :class:`~sampledyn.models.ClosedLoop`; the vehicle's kernel knows nothing of it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from ._base import RHS_SIG, CompiledModel
-from ._vehicle_kernels import vehicle_rhs, vehicle_switch
+from ._closed_loop import ClosedLoop, LinearFeedback
 
-__all__ = ["AttitudeHold"]
+__all__ = ["AttitudeHold", "roll_pitch_hold"]
 
-
-# p = [len(p_vehicle), p_vehicle..., G (N x 12, row-major)]: the loop computes the
-# applied rpm n = u + G x[:12] and calls the plant's own kernels with it, so the
-# vehicle kernel knows nothing about the controller.
+# State indices of (phi, theta, p, q) in (eta, v).
+_ATTITUDE = (3, 4, 9, 10)
 
 
-@njit(cache=True)
-def _applied(x, u, p):  # pragma: no cover - compiled
-    nv = int(p[0])
-    nt = u.shape[0]
-    g0 = 1 + nv
-    n = np.empty(nt)
-    for i in range(nt):
-        acc = u[i]
-        for j in range(12):
-            acc += p[g0 + 12 * i + j] * x[j]
-        n[i] = acc
-    return n
+def _vertical_map(vehicle: Any) -> np.ndarray:
+    """P (N_thr x 2): roll and pitch moments (N m) -> thrust increments (N) of the
+    vertical thrusters, minimum norm, with no net heave force."""
+    d = np.asarray(vehicle.thruster_directions, dtype=float)
+    vertical = np.abs(d[:, 2]) > np.hypot(d[:, 0], d[:, 1])
+    if vertical.sum() < 2:
+        raise ValueError("`vehicle` needs at least 2 vertical thrusters for the attitude hold.")
+    alloc = np.asarray(vehicle.allocation)  # rows: X, Y, Z, K, M, N
+    rows = np.vstack([alloc[2][vertical], alloc[3:5][:, vertical]])  # heave kept out
+    p_map = np.zeros((d.shape[0], 2))
+    p_map[vertical] = np.linalg.pinv(rows)[:, 1:]
+    return p_map
 
 
-@njit(RHS_SIG, cache=True)
-def _hold_rhs(t, x, u, p, out):  # pragma: no cover - compiled
-    vehicle_rhs(t, x, _applied(x, u, p), p[1 : 1 + int(p[0])], out)
+def roll_pitch_hold(
+    vehicle: Any, kp: float = 40.0, kd: float = 6.0, n_lin_frac: float = 0.3
+) -> LinearFeedback:
+    """The roll-pitch PD hold as a linear feedback law ``n = n_ref + G x``.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The open-loop vehicle (thruster directions, allocation, K1, n_max).
+    kp, kd : float
+        Moment per radian (N m/rad) and per rad/s (N m s/rad) of roll and pitch.
+    n_lin_frac : float
+        Operating point n_lin of the thrust-to-rpm conversion, as a fraction of n_max.
+
+    Returns
+    -------
+    LinearFeedback with gain G of shape (N_thr, nx) (rpm per state unit), non-zero in
+    the columns of phi, theta, p and q.
+    """
+    for name, value in (("kp", kp), ("kd", kd), ("n_lin_frac", n_lin_frac)):
+        if not value > 0:
+            raise ValueError(f"`{name}` must be > 0, got {value}.")
+    p_map = _vertical_map(vehicle)
+    scale = 1.0 / (2.0 * vehicle.K1 * n_lin_frac * vehicle.n_max)  # rpm per N
+    gain = np.zeros((p_map.shape[0], int(vehicle.nx)))
+    gain[:, _ATTITUDE[0:2]] = -kp * p_map * scale  # roll, pitch angle
+    gain[:, _ATTITUDE[2:4]] = -kd * p_map * scale  # roll, pitch rate
+    names = tuple(f"{n}_ref" for n in vehicle.input_names)
+    return LinearFeedback(gain, reference_names=names, reference_units=vehicle.input_units)
 
 
-@njit(RHS_SIG, cache=True)
-def _hold_switch(t, x, u, p, out):  # pragma: no cover - compiled
-    # The plant's switching values (|v| v, n |n|, saturation) at the applied rpm.
-    vehicle_switch(t, x, _applied(x, u, p), p[1 : 1 + int(p[0])], out)
-
-
-@dataclass(frozen=True)
-class AttitudeHold(CompiledModel):
+class AttitudeHold(ClosedLoop):
     """``vehicle`` with a roll-pitch PD hold on its vertical thrusters.
 
     Parameters
     ----------
     vehicle : Vehicle
-        The open-loop vehicle (without the thruster-lag option).
+        The open-loop vehicle.
     kp : float
         Moment per radian of roll or pitch (N m/rad). Default 40: with the BlueROV2
         Heavy's roll inertia and added inertia (0.45 kg m^2) the loop's natural
@@ -76,98 +93,38 @@ class AttitudeHold(CompiledModel):
         about 0.7 on that inertia).
     n_lin_frac : float
         Operating point n_lin of the thrust-to-rpm conversion, as a fraction of n_max.
+
+    Attributes
+    ----------
+    gains : ndarray, shape (N_thr, 4)
+        rpm per unit of (phi, theta, p, q).
     """
 
-    vehicle: Any
-    kp: float = 40.0
-    kd: float = 6.0
-    n_lin_frac: float = 0.3
-    gains: np.ndarray = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        v = self.vehicle
-        if getattr(v, "thruster_lag", False):
-            raise ValueError("`vehicle` must not use the thruster-lag option here.")
-        for name in ("kp", "kd", "n_lin_frac"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"`{name}` must be > 0, got {getattr(self, name)}.")
-        d = np.asarray(v.thruster_directions, dtype=float)
-        vertical = np.abs(d[:, 2]) > np.hypot(d[:, 0], d[:, 1])
-        if vertical.sum() < 2:
-            raise ValueError("the attitude hold needs at least 2 vertical thrusters.")
-        alloc = np.asarray(v.allocation)  # rows: X, Y, Z, K, M, N
-        sub = alloc[3:5][:, vertical]  # roll and pitch moment per unit thrust
-        rows = np.vstack([alloc[2][vertical], sub])  # keep heave out of the correction
-        pinv = np.linalg.pinv(rows)[:, 1:]  # (n_vertical, 2): moments -> thrusts
-        p_map = np.zeros((d.shape[0], 2))
-        p_map[vertical] = pinv
-        scale = 1.0 / (2.0 * v.K1 * self.n_lin_frac * v.n_max)  # rpm per N
-        gains = np.zeros((d.shape[0], 4))
-        gains[:, 0:2] = -self.kp * p_map * scale  # roll, pitch angle
-        gains[:, 2:4] = -self.kd * p_map * scale  # roll, pitch rate
-        object.__setattr__(self, "gains", gains)
-
-    # The model protocol, delegating names and sizes to the vehicle.
-    @property
-    def nx(self) -> int:  # type: ignore[override]
-        return int(self.vehicle.nx)
+    def __init__(
+        self, vehicle: Any, kp: float = 40.0, kd: float = 6.0, n_lin_frac: float = 0.3
+    ) -> None:
+        law = roll_pitch_hold(vehicle, kp, kd, n_lin_frac)
+        super().__init__(vehicle, law, name=f"{vehicle.name} + attitude hold")
+        self.kp = float(kp)
+        self.kd = float(kd)
+        self.n_lin_frac = float(n_lin_frac)
+        gains = np.ascontiguousarray(law.gain[:, list(_ATTITUDE)])
+        gains.setflags(write=False)
+        self.gains = gains
 
     @property
-    def nu(self) -> int:  # type: ignore[override]
-        return int(self.vehicle.nu)
-
-    @property
-    def state_names(self) -> tuple[str, ...]:  # type: ignore[override]
-        return tuple(self.vehicle.state_names)
-
-    @property
-    def state_units(self) -> tuple[str, ...]:  # type: ignore[override]
-        return tuple(self.vehicle.state_units)
-
-    @property
-    def input_names(self) -> tuple[str, ...]:  # type: ignore[override]
-        return tuple(f"{n}_ref" for n in self.vehicle.input_names)
-
-    @property
-    def input_units(self) -> tuple[str, ...]:  # type: ignore[override]
-        return tuple(self.vehicle.input_units)
-
-    @property
-    def name(self) -> str:
-        return f"{self.vehicle.name} + attitude hold"
-
-    def _p(self) -> np.ndarray:
-        pv = np.asarray(self.vehicle.kernel()[1], dtype=float)
-        feedback = np.zeros((self.gains.shape[0], 12))
-        feedback[:, [3, 4, 9, 10]] = self.gains
-        return np.concatenate([[float(pv.shape[0])], pv, feedback.ravel()])
-
-    def kernel(self) -> tuple[Any, np.ndarray]:
-        return _hold_rhs, self._p()
-
-    def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
-        """The vehicle's switching values at the applied rpm."""
-        _, _, input_only = self.vehicle.switch_kernel()
-        # the applied rpm depend on the state through the feedback
-        return _hold_switch, self._p(), np.zeros_like(input_only)
+    def vehicle(self) -> Any:
+        """The open-loop vehicle (the plant)."""
+        return self.plant
 
     def applied_rpm(self, x: Any, u_ref: Any) -> np.ndarray:
-        """Applied rpm n = n_ref + Delta n(x), shape (N, N_thr)."""
+        """Applied rpm n = n_ref + Delta n(x), shape (N, N_thr) (:meth:`applied_input`)."""
         x = np.atleast_2d(np.asarray(x, dtype=float))
-        att = x[:, [3, 4, 9, 10]]
-        return np.asarray(u_ref, dtype=float) + att @ self.gains.T
+        return self.applied_input(0.0, x, u_ref)
 
-    def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
-        """df/dx by central differences (step 1e-6 relative); the open-loop vehicle
-        has the analytic Jacobian."""
-        single = np.ndim(x) == 1
-        x = np.atleast_2d(np.asarray(x, dtype=float))
-        u = np.broadcast_to(np.asarray(u, dtype=float), (x.shape[0], self.nu))
-        out = np.empty((x.shape[0], self.nx, self.nx))
-        for j in range(self.nx):
-            step = 1e-6 * np.maximum(1.0, np.abs(x[:, j]))
-            xp, xm = x.copy(), x.copy()
-            xp[:, j] += step
-            xm[:, j] -= step
-            out[:, :, j] = (self.f(t, xp, u) - self.f(t, xm, u)) / (2 * step[:, None])
-        return out[0] if single else out
+    def with_params(self, **values: Any) -> AttitudeHold:
+        """The hold, recomputed, around the vehicle with some parameters changed."""
+        return AttitudeHold(self.vehicle.with_params(**values), self.kp, self.kd, self.n_lin_frac)
+
+    def __repr__(self) -> str:
+        return f"AttitudeHold({self.vehicle.name!r}, kp={self.kp:g}, kd={self.kd:g})"

@@ -8,19 +8,28 @@ same kernel over a batch of samples, so there is one source of truth per model.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numba import float64, njit, types
 
+from ._codegen import batch_functions
+
 __all__ = [
+    "BATCH_JAC_SIG",
+    "BATCH_RHS_SIG",
     "JAC_SIG",
     "RHS_SIG",
     "CompiledModel",
+    "JacobianUnavailableError",
     "LinearForm",
     "Model",
+    "ParameterArrayModel",
     "batch_eval",
+    "finite_number",
+    "index_switch",
 ]
 
 # Every compiled kernel has one of these explicit signatures. Functions that take a
@@ -36,13 +45,16 @@ RHS_SIG = types.void(float64, RO1, RO1, RO1, float64[::1])
 JAC_SIG = types.void(float64, RO1, RO1, RO1, float64[:, ::1])
 RHS_TYPE = types.FunctionType(RHS_SIG)
 JAC_TYPE = types.FunctionType(JAC_SIG)
+# Batch evaluators bound to one kernel: batch(t (N,), x (N, nx), u (N, nu), p) -> out.
+BATCH_RHS_SIG = float64[:, ::1](RO1, RO2, RO2, RO1)
+BATCH_JAC_SIG = float64[:, :, ::1](RO1, RO2, RO2, RO1)
 
 
-@njit(
-    float64[:, ::1](RHS_TYPE, RO1, RO2, RO2, RO1),
-    cache=True,
-)
-def _batch_rhs(rhs, t, x, u, p):  # pragma: no cover - compiled
+# Fallback batch evaluators taking the kernel as a function pointer (for kernels that
+# cannot be bound as a global, e.g. FunctionModel's). Compiled, or loaded from numba's
+# cache, on first use only: most processes never need them.
+@njit(cache=True)
+def _batch_rhs_any(rhs, t, x, u, p):  # pragma: no cover - compiled
     n, nx = x.shape
     out = np.empty((n, nx))
     for i in range(n):
@@ -50,16 +62,45 @@ def _batch_rhs(rhs, t, x, u, p):  # pragma: no cover - compiled
     return out
 
 
-@njit(
-    float64[:, :, ::1](JAC_TYPE, RO1, RO2, RO2, RO1),
-    cache=True,
-)
-def _batch_jac(jac, t, x, u, p):  # pragma: no cover - compiled
-    n, nx = x.shape
-    out = np.empty((n, nx, nx))
+@njit(cache=True)
+def _batch_matrix_any(jac, t, x, u, p, rows, cols):  # pragma: no cover - compiled
+    n = x.shape[0]
+    out = np.empty((n, rows, cols))
     for i in range(n):
         jac(t[i], x[i], u[i], p, out[i])
     return out
+
+
+def _compiled(dispatcher: Any, sig: Any) -> Any:
+    if not dispatcher.signatures:
+        dispatcher.compile(sig)
+        dispatcher.disable_compile()
+    return dispatcher
+
+
+_BATCH_RHS_ANY_SIG = float64[:, ::1](RHS_TYPE, RO1, RO2, RO2, RO1)
+_BATCH_MATRIX_ANY_SIG = float64[:, :, ::1](JAC_TYPE, RO1, RO2, RO2, RO1, types.int64, types.int64)
+
+
+def _batch_rhs(rhs: Any, t: Any, x: Any, u: Any, p: Any) -> np.ndarray:
+    """``rhs`` over a batch, the kernel passed as a function pointer; shape (N, nx)."""
+    return _compiled(_batch_rhs_any, _BATCH_RHS_ANY_SIG)(rhs, t, x, u, p)
+
+
+def _batch_matrix(jac: Any, t: Any, x: Any, u: Any, p: Any, rows: int, cols: int) -> np.ndarray:
+    """``jac`` over a batch, the kernel passed as a function pointer; (N, rows, cols)."""
+    return _compiled(_batch_matrix_any, _BATCH_MATRIX_ANY_SIG)(jac, t, x, u, p, rows, cols)
+
+
+@njit(RHS_SIG, cache=True)
+def index_switch(t, x, u, sp, out):  # pragma: no cover - compiled
+    """Switching values picked from the state and input: sp = [ns, i..., nu, j...]."""
+    ns = int(sp[0])
+    for k in range(ns):
+        out[k] = x[int(sp[1 + k])]
+    nu = int(sp[1 + ns])
+    for k in range(nu):
+        out[ns + k] = u[int(sp[2 + ns + k])]
 
 
 def readonly(a: Any) -> np.ndarray:
@@ -81,7 +122,21 @@ def _single(x: Any, u: Any, nx: int, nu: int) -> tuple[np.ndarray, np.ndarray]:
     return xs, us
 
 
-def _as_batch(t: Any, x: Any, u: Any, nx: int, nu: int) -> tuple[np.ndarray, ...]:
+def _is_f64(a: Any, ndim: int) -> bool:
+    return (
+        type(a) is np.ndarray and a.ndim == ndim and a.dtype == np.float64 and a.flags.c_contiguous
+    )
+
+
+def _as_batch(
+    t: Any, x: Any, u: Any, nx: int, nu: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    if _is_f64(x, 2) and _is_f64(u, 2) and x.shape[1] == nx and u.shape == (x.shape[0], nu):
+        # Fast path (a batch as the predictors pass it): no conversion.
+        n = x.shape[0]
+        if _is_f64(t, 1) and t.shape == (n,):
+            return t, x, u, np.False_
+        return np.full(n, float(t)) if np.ndim(t) == 0 else _times(t, n), x, u, np.False_
     x = np.ascontiguousarray(x, dtype=float)
     single = x.ndim == 1
     if single:
@@ -96,15 +151,28 @@ def _as_batch(t: Any, x: Any, u: Any, nx: int, nu: int) -> tuple[np.ndarray, ...
         u = np.broadcast_to(u, (n, nu)).copy()
     if u.shape != (n, nu):
         raise ValueError(f"`u` must have shape ({n}, {nu}), got {u.shape}.")
-    t = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (n,)))
-    return t, x, u, np.array(single)
+    return _times(t, n), x, u, np.array(single)
+
+
+def _times(t: Any, n: int) -> np.ndarray:
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (n,)))
 
 
 def batch_eval(kernel: Callable[..., None], p: Any, t: Any, x: Any, u: Any, nx: int, nu: int):
-    """Evaluate a compiled ``kernel(t, x, u, p, out)`` on a batch of samples."""
+    """Evaluate a compiled ``kernel(t, x, u, p, out)`` (out shape (nx,)) on a batch of
+    samples; returns shape (N, nx) (or (nx,) for a single state)."""
     t, x, u, single = _as_batch(t, x, u, nx, nu)
-    out = _batch_rhs(kernel, readonly(t), readonly(x), readonly(u), readonly(p))
+    batch = batch_functions(kernel, "rhs")
+    if batch is not None:
+        out = batch(t, x, u, _params(p))
+    else:
+        out = _batch_rhs(kernel, readonly(t), readonly(x), readonly(u), readonly(p))
     return out[0] if single else out
+
+
+class JacobianUnavailableError(NotImplementedError):
+    """The model has no exact Jacobian (sampledyn never falls back to finite
+    differences); the message says how to supply one."""
 
 
 class LinearForm:
@@ -152,10 +220,16 @@ class Model(Protocol):
 
 
 class CompiledModel:
-    """Base class of the built-in models: ``f`` and ``jacobian`` from compiled kernels.
+    """Base class of the compiled models: ``f`` and ``jacobian`` from compiled kernels.
 
     Subclasses set ``nx``, ``nu``, names and units, and implement :meth:`kernel`
-    (returning the compiled rhs and its parameter array) and :meth:`jacobian_kernel`.
+    (returning the compiled rhs and its parameter array) and :meth:`jacobian_kernel`;
+    optionally :meth:`input_jacobian_kernel`, and ``kink_states`` / ``kink_inputs``
+    (indices inside ``|.|``) or their own :meth:`switch_kernel`.
+
+    ``f`` and ``jacobian`` evaluate a batch through an evaluator bound to the kernel
+    (see :func:`sampledyn.models._codegen.batch_functions`), so a call from Python
+    costs about a microsecond of dispatch, whatever the batch size.
     """
 
     nx: int
@@ -171,7 +245,32 @@ class CompiledModel:
 
     def jacobian_kernel(self) -> tuple[Callable[..., None], Any]:
         """The compiled ``jac(t, x, u, p, out)`` (out shape (nx, nx)) and ``p``."""
-        raise NotImplementedError
+        raise JacobianUnavailableError(f"{type(self).__name__} has no compiled Jacobian kernel.")
+
+    def input_jacobian_kernel(self) -> tuple[Callable[..., None], Any]:
+        """The compiled ``jac_u(t, x, u, p, out)`` (out shape (nx, nu)) and ``p``."""
+        raise JacobianUnavailableError(
+            f"{type(self).__name__} has no input Jacobian df/du; closed loops around it "
+            "need one for their exact Jacobian (define the model with "
+            "sampledyn.models.SymbolicModel, or give FunctionModel an `input_jac`)."
+        )
+
+    def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
+        """Switching values whose zero crossings are the kinks of f.
+
+        Returns
+        -------
+        (sw, sp, input_only)
+            A compiled ``sw(t, x, u, sp, out)``, its parameters, and one bool per value:
+            True where the value depends on the input only. This default picks the
+            states ``kink_states`` and inputs ``kink_inputs`` (the arguments of
+            ``|.|`` terms).
+        """
+        states = tuple(int(i) for i in getattr(self, "kink_states", ()))
+        inputs = tuple(int(j) for j in getattr(self, "kink_inputs", ()))
+        sp = np.array([len(states), *states, len(inputs), *inputs], dtype=float)
+        input_only = np.array([False] * len(states) + [True] * len(inputs), dtype=np.bool_)
+        return index_switch, sp, input_only
 
     @property
     def default_x0(self) -> np.ndarray:
@@ -195,23 +294,175 @@ class CompiledModel:
         ndarray, shape (N, nx) (or (nx,) for a single state)
         """
         rhs, p = self.kernel()
+        # Fast paths for float64 arrays of the right shapes (numba's dispatcher refuses
+        # anything else with a TypeError, and then the general path converts).
+        if type(x) is np.ndarray and type(u) is np.ndarray:
+            shape = x.shape
+            if type(t) is float and shape == (self.nx,) and u.shape == (self.nu,):
+                out = np.empty(self.nx)
+                try:
+                    rhs(t, x, u, p, out)
+                    return out
+                except TypeError:
+                    pass
+            elif (
+                len(shape) == 2
+                and shape[1] == self.nx
+                and u.shape == (shape[0], self.nu)
+                and type(t) is np.ndarray
+                and t.shape == (shape[0],)
+            ):
+                batch = batch_functions(rhs, "rhs")
+                if batch is not None:
+                    try:
+                        return batch(t, x, u, p)
+                    except TypeError:
+                        pass
         if np.ndim(x) == 1 and np.ndim(t) == 0:
-            # One state (e.g. inside an ODE solver): call the kernel directly; the
-            # batch path costs ~0.1 ms of dispatch per call.
             xs, us = _single(x, u, self.nx, self.nu)
             out = np.empty(self.nx)
-            rhs(float(t), xs, us, readonly(p), out)
+            rhs(float(t), xs, us, _params(p), out)
             return out
         return batch_eval(rhs, p, t, x, u, self.nx, self.nu)
 
     def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
-        """Analytic Jacobian ``df/dx``, shape (N, nx, nx) (or (nx, nx))."""
+        """Exact Jacobian ``df/dx``, shape (N, nx, nx) (or (nx, nx)).
+
+        Raises
+        ------
+        JacobianUnavailableError
+            If the model has no Jacobian kernel.
+        """
         jac, p = self.jacobian_kernel()
+        return self._matrix(jac, "jac", p, t, x, u, self.nx)
+
+    def input_jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """Exact input Jacobian ``df/du``, shape (N, nx, nu) (or (nx, nu)).
+
+        Raises
+        ------
+        JacobianUnavailableError
+            If the model has no input-Jacobian kernel.
+        """
+        jac, p = self.input_jacobian_kernel()
+        return self._matrix(jac, "jac_u", p, t, x, u, self.nu)
+
+    def _matrix(self, kernel: Any, kind: str, p: Any, t: Any, x: Any, u: Any, cols: int):
         if np.ndim(x) == 1 and np.ndim(t) == 0:
             xs, us = _single(x, u, self.nx, self.nu)
-            out = np.empty((self.nx, self.nx))
-            jac(float(t), xs, us, readonly(p), out)
+            out = np.empty((self.nx, cols))
+            kernel(float(t), xs, us, _params(p), out)
             return out
         tt, xx, uu, single = _as_batch(t, x, u, self.nx, self.nu)
-        out = _batch_jac(jac, readonly(tt), readonly(xx), readonly(uu), readonly(p))
+        batch = batch_functions(kernel, "jac") if kind == "jac" else None
+        if batch is None:
+            batch = _registered(kernel)
+        if batch is not None:
+            out = batch(tt, xx, uu, _params(p))
+        else:
+            out = _batch_matrix(
+                kernel, readonly(tt), readonly(xx), readonly(uu), readonly(p), self.nx, cols
+            )
         return out[0] if single else out
+
+
+class ParameterArrayModel(CompiledModel):
+    """A compiled model whose parameters travel in one array ``p`` (the order of
+    :attr:`param_names`) and whose default initial state is given: the base of the
+    user-defined models. :meth:`with_params` copies the model, sharing its compiled
+    kernels, with other values in ``p``; nothing is recompiled."""
+
+    _param_names: tuple[str, ...]
+    _p: np.ndarray
+    _x0: np.ndarray
+    param_units: dict[str, str]
+
+    def _set_params(
+        self, names: tuple[str, ...], values: Any, units: Any, x0: Any, nx: int
+    ) -> None:
+        """Check and store the parameters (names, values, units by name) and x0."""
+        self._param_names = tuple(names)
+        self._p = _frozen(
+            [finite_number(v, f"params[{n}]") for n, v in zip(names, values, strict=True)]
+        )
+        units = dict(units or {})
+        unknown = set(units) - set(self._param_names)
+        if unknown:
+            raise ValueError(
+                f"`param_units` names unknown parameter(s) {sorted(unknown)}; parameters: "
+                f"{list(self._param_names)}."
+            )
+        self.param_units = {n: str(units.get(n, "")) for n in self._param_names}
+        x0a = np.zeros(nx) if x0 is None else np.array(x0, dtype=float)
+        if x0a.shape != (nx,) or not np.isfinite(x0a).all():
+            raise ValueError(f"`x0` must be {nx} finite numbers, got {x0!r}.")
+        self._x0 = _frozen(x0a)
+
+    @property
+    def params(self) -> dict[str, float]:
+        """Parameter values by name (units in :attr:`param_units`)."""
+        return dict(zip(self._param_names, (float(v) for v in self._p), strict=True))
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return self._param_names
+
+    @property
+    def default_x0(self) -> np.ndarray:
+        return self._x0.copy()
+
+    def with_params(self, **values: float) -> Any:
+        """The same model with some parameter values changed (no recompilation).
+
+        Raises
+        ------
+        TypeError
+            For a name that is not a parameter.
+        ValueError
+            For a value that is not a finite number.
+        """
+        unknown = set(values) - set(self._param_names)
+        if unknown:
+            raise TypeError(
+                f"unknown parameter(s) {sorted(unknown)}; valid: {list(self._param_names)}."
+            )
+        p = np.array(self._p)
+        for name, v in values.items():
+            p[self._param_names.index(name)] = finite_number(v, name)
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new._p = _frozen(p)
+        return new
+
+
+def finite_number(value: Any, argument: str) -> float:
+    """``value`` as a finite float (sympy and numpy numbers accepted), or an error
+    naming ``argument``."""
+    if value is None:
+        raise ValueError(f"`{argument}` has no value; give every parameter a number.")
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"`{argument}` must be a real number, got {value!r} ({type(value).__name__})."
+            ) from None
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"`{argument}` must be finite, got {v}.")
+    return v
+
+
+def _frozen(values: Any) -> np.ndarray:
+    p = np.array(values, dtype=float).reshape(-1)
+    p.setflags(write=False)
+    return p
+
+
+def _registered(kernel: Any) -> Any:
+    """A registered batch evaluator of ``kernel`` (generated modules register theirs)."""
+    return batch_functions(kernel, None)
+
+
+def _params(p: Any) -> np.ndarray:
+    return p if _is_f64(p, 1) else np.ascontiguousarray(p, dtype=float)
