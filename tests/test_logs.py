@@ -143,8 +143,8 @@ def _malformed(frame: pd.DataFrame, case: str) -> pd.DataFrame:
 
 MALFORMED = {
     "non-monotonic": r"not strictly increasing at data row 52 \(line 53\)",
-    "gap": r"not uniformly sampled: between data row 200 \(line 201\) and data row 201 "
-    r"\(line 202\) t jumps from 19\.9 s to 20\.3 s \(gap 0\.4 s; h = 0\.1 s",
+    "gap": r"dropped records: 3 records missing between data row 200 \(line 201\) and data "
+    r"row 201 \(line 202\) \(t = 19\.9 s to 20\.3 s\)\. Nothing is resampled.*--gaps",
     "nan": r"column 'x\[m\]' is NaN at data row 31 \(line 32\).*--nan",
     "nan-time": r"t is NaN or inf at data row 8 \(line 9\)",
     "missing": r"missing column 'q'",

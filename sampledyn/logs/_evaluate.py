@@ -16,6 +16,7 @@ from ..methods import get_method
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
 from ._read import LogData
+from ._units import LogFormatError
 
 __all__ = ["LogEvaluation", "evaluate_log"]
 
@@ -69,6 +70,81 @@ def _norms(
     return out
 
 
+def _refuse_nonuniform(data: LogData) -> None:
+    """The rules predict on a uniform grid only; say why a log is not one.
+
+    This is the one place that refuses non-uniform time: the variable-step rules
+    (prediction on the logged stamps) lift it by predicting on such segments instead.
+    """
+    smp = data.sampling
+    for a, b in data.segments:
+        seg = data.traj.t[a:b]
+        steps = np.diff(seg)
+        if steps.size == 0 or np.abs(steps - data.traj.h).max() <= 1e-6 * data.traj.h:
+            continue
+        if smp is not None and not smp.uniform:
+            why = (
+                f"its time stamps are jittered (one-period steps {steps.min():.6g}.."
+                f"{steps.max():.6g} s, up to {data.jitter:.2%} of h = {data.traj.h:.6g} s) "
+                "and are kept as logged, not snapped to a grid"
+            )
+        else:
+            n = int(np.argmax(np.abs(steps - data.traj.h) > 1e-6 * data.traj.h)) + a
+            why = (
+                f"it has bridged gaps of dropped records (first: a step of "
+                f"{data.traj.t[n + 1] - data.traj.t[n]:.6g} s at t = {data.traj.t[n]:.6g} s, "
+                f"h = {data.traj.h:.6g} s)"
+            )
+        raise LogFormatError(
+            "t",
+            f"{data.source}: {why}; one-step prediction on non-uniform time stamps needs "
+            "variable-step rules, which are not available yet. Evaluate a uniform log, or "
+            "split this one at its gaps (gaps='split', --gaps split) if its segments are "
+            "uniform.",
+        )
+
+
+def _rows_text(rows: np.ndarray) -> str:
+    """1-based data rows as ranges: 'data rows 4-7, 12'."""
+    rows = np.asarray(rows) + 1
+    runs: list[str] = []
+    start = prev = int(rows[0])
+    for r in [*map(int, rows[1:]), None]:
+        if r is not None and r == prev + 1:
+            prev = r
+            continue
+        runs.append(f"{start}-{prev}" if prev > start else f"{start}")
+        if r is not None:
+            start = prev = r
+    shown = ", ".join(runs[:6]) + (f", ... ({len(runs) - 6} more ranges)" if len(runs) > 6 else "")
+    return f"data row{'s' if rows.size > 1 else ''} {shown}"
+
+
+def _warn_rpm_beyond_limit(model: Any, data: LogData) -> None:
+    """Warn, naming the rows, where logged thruster rpm exceed the vehicle's n_max
+    (issue 13 item 6): the thrust law (7) is used beyond its data there."""
+    n_max = getattr(model, "n_max", None)
+    rpm = [j for j, unit in enumerate(data.traj.input_units) if unit == "rpm"]
+    if n_max is None or not rpm:
+        return
+    u = data.traj.u[:, rpm]
+    over = np.abs(u) > float(n_max)
+    bad = np.flatnonzero(over.any(axis=1))
+    if bad.size == 0:
+        return
+    rows = data.rows[bad] if data.rows is not None else bad
+    k = int(np.argmax(np.abs(u[bad]).max(axis=1)))
+    j = int(np.argmax(np.abs(u[bad[k]])))
+    name = data.traj.input_names[rpm[j]]
+    warnings.warn(
+        f"{data.source}: logged thruster speeds exceed the vehicle's n_max = {float(n_max):g} "
+        f"rpm in {bad.size} of {data.traj.n_samples} samples ({_rows_text(rows)}); largest "
+        f"|{name}| = {abs(float(u[bad[k], j])):g} rpm. The model's thrust is extrapolated "
+        "there: check the log's units and the vehicle's thruster data.",
+        stacklevel=3,
+    )
+
+
 def evaluate_log(
     model: Any,
     data: LogData,
@@ -83,7 +159,8 @@ def evaluate_log(
     ----------
     model : Model
     data : LogData
-        From :func:`read_log`.
+        From :func:`read_log`. A log split at dropped records (``gaps="split"``) is
+        predicted segment by segment; the norms run over all segments together.
     methods : sequence of str
         Registry names ("E", "AB2", "RK4", "T", ...). Runge-Kutta stages use the
         logged input held over each interval (zero-order hold). An estimated rule
@@ -97,13 +174,28 @@ def evaluate_log(
     Returns
     -------
     LogEvaluation
+
+    Raises
+    ------
+    LogFormatError
+        for a log (segment) whose time is not uniform (jitter, bridged gaps): the
+        message names the jitter or the gap; for an estimated rule on a split log.
     """
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
+    _refuse_nonuniform(data)
+    segments = data.segments
+    if len(segments) > 1 and any(_ESTIMATED.match(name) for name in methods):
+        raise LogFormatError(
+            "estimate",
+            f"{data.source}: estimation on a log split into {len(segments)} segments is not "
+            "supported; estimate on a log without gaps (or one segment of it).",
+        )
     rows: list[dict[str, Any]] = []
     estimation = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        _warn_rpm_beyond_limit(model, data)
         for name in methods:
             m_est = _ESTIMATED.match(name)
             if m_est:
@@ -112,7 +204,13 @@ def evaluate_log(
                 history, order = s, s
             else:
                 method = get_method(name)
-                x_hat = predict(method, model, data.traj)
+                x_hat = np.full(data.traj.x.shape, np.nan)
+                for a, b in segments:
+                    if b - a >= 2:
+                        seg = data.traj.replace(
+                            t=data.traj.t[a:b], x=data.traj.x[a:b], u=data.traj.u[a:b]
+                        )
+                        x_hat[a:b] = predict(method, model, seg)
                 history = int(getattr(method, "history", 1))
                 order = int(method.order)
             err = local_errors(x_hat, data.traj)
