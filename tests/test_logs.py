@@ -11,21 +11,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import sampledyn as sd
 from sampledyn.cli import main
 from sampledyn.logs import LogFormatError, evaluate_log, read_log, synthetic_log
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
-
-
-@pytest.fixture(scope="module")
-def vehicle():
-    return sd.models.load_vehicle("bluerov2_heavy")
-
-
-@pytest.fixture(scope="module")
-def frame():
-    return pd.read_csv(EXAMPLE)
 
 
 def _errors(model, data, methods=("E", "AB2", "RK4")):

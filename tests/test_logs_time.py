@@ -20,16 +20,6 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
 METHODS = "E,AB2,AB4,RK4,T"
 
 
-@pytest.fixture(scope="module")
-def vehicle():
-    return sd.models.load_vehicle("bluerov2_heavy")
-
-
-@pytest.fixture(scope="module")
-def frame():
-    return pd.read_csv(EXAMPLE)
-
-
 def _table(path, capsys, *extra):
     """The printed table of `sampledyn evaluate` (the lines after its heading)."""
     code = main(

@@ -30,20 +30,18 @@ stamp. Time: each message's TimeUS (us since boot, an integer counter). Sampling
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ._frames import rotation_zyx
-from ._mapping import check_keys, load_toml
 from ._read import LogData, log_from_frame
 from ._streams import (
     SAMPLING_RULE,
-    check_vehicle,
     drop_before_first_command,
     hold_last,
+    mapping_section,
     nearest,
     thruster_options,
     thruster_rpm,
@@ -108,19 +106,7 @@ def read_dataflash(path: Path, model: Any, *, mapping: Any = None, **options: An
     say where each quantity came from and the sampling rule."""
     path = Path(path)
     src = path.name
-    check_vehicle(model, src)
-    raw = load_toml(mapping)
-    if not raw:
-        raise LogFormatError(
-            "mapping",
-            f"{src}: a DataFlash log needs a mapping file (thruster channels; docs/logs.md).",
-        )
-    check_keys(raw, ["ardusub"], "the top level (an ArduSub mapping has [ardusub])", ["ardusub"])
-    cfg = raw["ardusub"]
-    check_keys(cfg, _KEYS, "[ardusub]", required=["thrusters"])
-    thr = cfg["thrusters"]
-    if not isinstance(thr, Mapping):
-        raise LogFormatError("mapping", "mapping file: [ardusub.thrusters] must be a table.")
+    cfg, thr = mapping_section(model, mapping, "ardusub", _KEYS, src, "a DataFlash log")
     unit, direction, voltage = thruster_options(
         thr, model.nu, "[ardusub.thrusters]", ("channels",), ("channels",)
     )

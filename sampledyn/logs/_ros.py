@@ -29,20 +29,18 @@ refer to); the bag's record time only for a message without a header. Sampling r
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ._frames import BODY_FRAMES, WORLD_FRAMES, quaternion_matrix, to_ned_frd
-from ._mapping import check_keys, load_toml
 from ._read import LogData, log_from_frame
 from ._streams import (
     SAMPLING_RULE,
-    check_vehicle,
     drop_before_first_command,
     hold_last,
+    mapping_section,
     nearest,
     thruster_options,
     thruster_rpm,
@@ -144,15 +142,7 @@ def read_bag(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> 
     from, the frames and the sampling rule."""
     path = Path(path)
     src = path.name
-    check_vehicle(model, src)
-    raw = load_toml(mapping)
-    if not raw:
-        raise LogFormatError(
-            "mapping", f"{src}: a bag needs a mapping file naming its topics (docs/logs.md)."
-        )
-    check_keys(raw, ["ros"], "the top level (a ROS bag mapping has [ros])", required=["ros"])
-    ros = raw["ros"]
-    check_keys(ros, _ROS_KEYS, "[ros]", required=["thrusters"])
+    ros, thr = mapping_section(model, mapping, "ros", _ROS_KEYS, src, "a bag")
     world = str(ros.get("world_frame", "enu"))
     body = str(ros.get("body_frame", "flu"))
     twist_frame = str(ros.get("twist_frame", "body"))
@@ -173,9 +163,6 @@ def read_bag(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> 
             "mapping",
             "mapping file: [ros] needs either `odometry` or both `pose` and `twist` topics.",
         )
-    thr = ros["thrusters"]
-    if not isinstance(thr, Mapping):
-        raise LogFormatError("mapping", "mapping file: [ros.thrusters] must be a table.")
     unit, direction, voltage = thruster_options(
         thr, model.nu, "[ros.thrusters]", ("topic", "topics", "field", "index"), ()
     )

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ._mapping import check_keys
+from ._mapping import check_keys, load_toml
 from ._t200 import T200_VOLTAGES, t200_rpm
 from ._units import CONVERSIONS, LogFormatError
 
@@ -29,6 +29,7 @@ __all__ = [
     "check_vehicle",
     "drop_before_first_command",
     "hold_last",
+    "mapping_section",
     "nearest",
     "thruster_options",
     "thruster_rpm",
@@ -54,6 +55,26 @@ def check_vehicle(model: Any, src: str) -> None:
             f"{tuple(model.state_names)} are not {VEHICLE_STATES}. Use a vehicle model "
             "(sampledyn.models.load_vehicle).",
         )
+
+
+def mapping_section(
+    model: Any, mapping: Any, section: str, keys: Sequence[str], src: str, what: str
+) -> tuple[dict[str, Any], Mapping[str, Any]]:
+    """The ``[section]`` of a bag or DataFlash mapping file and its ``thrusters``
+    table, every key checked (the model must be a 6-DoF vehicle)."""
+    check_vehicle(model, src)
+    raw = load_toml(mapping)
+    if not raw:
+        raise LogFormatError("mapping", f"{src}: {what} needs a mapping file (see docs/logs.md).")
+    check_keys(raw, [section], f"the top level (this mapping has [{section}])", [section])
+    cfg = raw[section]
+    if not isinstance(cfg, Mapping):
+        raise LogFormatError("mapping", f"mapping file: [{section}] must be a table.")
+    check_keys(cfg, keys, f"[{section}]", required=["thrusters"])
+    thr = cfg["thrusters"]
+    if not isinstance(thr, Mapping):
+        raise LogFormatError("mapping", f"mapping file: [{section}.thrusters] must be a table.")
+    return dict(cfg), thr
 
 
 def hold_last(
