@@ -30,6 +30,7 @@ stamp. Time: each message's TimeUS (us since boot, an integer counter). Sampling
 from __future__ import annotations
 
 import difflib
+import struct
 from pathlib import Path
 from typing import Any
 
@@ -65,7 +66,10 @@ def _read_messages(path: Path, types: dict[str, tuple[str, ...]], src: str) -> d
             "reading DataFlash logs needs the `pymavlink` package: "
             "pip install 'sampledyn[ardusub]'."
         ) from exc
-    log = DFReader.DFReader_binary(str(path), zero_time_base=False)
+    try:
+        log = DFReader.DFReader_binary(str(path), zero_time_base=False)
+    except (struct.error, ValueError, IndexError, KeyError) as exc:
+        raise LogFormatError("data", f"{src}: not a readable DataFlash log: {exc}") from exc
     rows: dict[str, list[tuple[Any, ...]]] = {t: [] for t in types}
     instance = {"XKF1": "C", "NKF1": "C", "IMU": "I"}
     try:
@@ -82,6 +86,8 @@ def _read_messages(path: Path, types: dict[str, tuple[str, ...]], src: str) -> d
         raise LogFormatError(
             "mapping", f"{src}: a message lacks a field the mapping needs: {exc}"
         ) from exc
+    except (struct.error, ValueError, IndexError, KeyError) as exc:
+        raise LogFormatError("data", f"{src}: not a readable DataFlash log: {exc}") from exc
     finally:
         log.close()
     out = {}

@@ -183,8 +183,13 @@ def read_bag(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> 
     )
 
     reader, kind = _open(path)
-    with reader:
-        streams = _collect(reader, list(dict.fromkeys(state_topics + cmd_topics)), src)
+    from rosbags.highlevel import AnyReaderError
+
+    try:
+        with reader:
+            streams = _collect(reader, list(dict.fromkeys(state_topics + cmd_topics)), src)
+    except AnyReaderError as exc:
+        raise LogFormatError("data", f"{src}: not a readable {kind} bag: {exc}") from exc
 
     # states at the stamps of the pose (or odometry) messages
     ptype, t_state, pmsgs, pheader = streams[state_topics[0]]
