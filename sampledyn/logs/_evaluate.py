@@ -70,6 +70,12 @@ def _norms(
     return out
 
 
+def _segment(data: LogData, a: int, b: int) -> Any:
+    """Rows [a, b) of the log as a Trajectory of their own (times as logged)."""
+    tr = data.traj
+    return tr.replace(t=tr.t[a:b], x=tr.x[a:b], u=tr.u[a:b])
+
+
 def _refuse_nonuniform(data: LogData) -> None:
     """The rules predict on a uniform grid only; say why a log is not one.
 
@@ -78,22 +84,23 @@ def _refuse_nonuniform(data: LogData) -> None:
     """
     smp = data.sampling
     for a, b in data.segments:
-        seg = data.traj.t[a:b]
-        steps = np.diff(seg)
-        if steps.size == 0 or np.abs(steps - data.traj.h).max() <= 1e-6 * data.traj.h:
+        if _segment(data, a, b).is_uniform():
             continue
+        h = data.traj.h
+        steps = np.diff(data.traj.t[a:b])
         if smp is not None and not smp.uniform:
+            one = steps[np.rint(steps / h) == 1]
             why = (
-                f"its time stamps are jittered (one-period steps {steps.min():.6g}.."
-                f"{steps.max():.6g} s, up to {data.jitter:.2%} of h = {data.traj.h:.6g} s) "
+                f"its time stamps are jittered (one-period steps {one.min():.6g}.."
+                f"{one.max():.6g} s, up to {data.jitter:.2%} of h = {h:.6g} s) "
                 "and are kept as logged, not snapped to a grid"
             )
         else:
-            n = int(np.argmax(np.abs(steps - data.traj.h) > 1e-6 * data.traj.h)) + a
+            n = int(np.argmax(np.abs(steps - h) > 1e-6 * h)) + a
+            what = "bridged gaps of dropped records" if smp is not None else "non-uniform steps"
             why = (
-                f"it has bridged gaps of dropped records (first: a step of "
-                f"{data.traj.t[n + 1] - data.traj.t[n]:.6g} s at t = {data.traj.t[n]:.6g} s, "
-                f"h = {data.traj.h:.6g} s)"
+                f"it has {what} (first: a step of {data.traj.t[n + 1] - data.traj.t[n]:.6g} s "
+                f"at t = {data.traj.t[n]:.6g} s, h = {h:.6g} s)"
             )
         raise LogFormatError(
             "t",
@@ -207,10 +214,7 @@ def evaluate_log(
                 x_hat = np.full(data.traj.x.shape, np.nan)
                 for a, b in segments:
                     if b - a >= 2:
-                        seg = data.traj.replace(
-                            t=data.traj.t[a:b], x=data.traj.x[a:b], u=data.traj.u[a:b]
-                        )
-                        x_hat[a:b] = predict(method, model, seg)
+                        x_hat[a:b] = predict(method, model, _segment(data, a, b))
                 history = int(getattr(method, "history", 1))
                 order = int(method.order)
             err = local_errors(x_hat, data.traj)
