@@ -14,8 +14,7 @@ from scipy.spatial.transform import Rotation
 
 import sampledyn as sd
 from sampledyn.cli import main
-from sampledyn.logs import LogFormatError, read_log
-from sampledyn.logs._t200 import T200_PWM_US, t200_rpm
+from sampledyn.logs import LogFormatError, read_log, t200_rpm
 
 rosbags = pytest.importorskip("rosbags")
 pytest.importorskip("pymavlink")
@@ -43,7 +42,7 @@ def run():
 
 def _pwm_for(rpm):
     """Inverse of the T200 table on its monotone parts (test helper)."""
-    pwm = T200_PWM_US
+    pwm = np.arange(1100.0, 1901.0, 4.0)  # the table's points
     table = t200_rpm(pwm)
     fwd, rev = pwm >= 1532, pwm <= 1468
     return np.where(

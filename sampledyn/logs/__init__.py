@@ -12,6 +12,8 @@ from ._read import read_log as read_log
 from ._synthetic import survey_input as survey_input
 from ._synthetic import synthetic_log as synthetic_log
 from ._synthetic import write_synthetic_log as write_synthetic_log
+from ._t200 import T200_VOLTAGES as T200_VOLTAGES
+from ._t200 import t200_rpm as t200_rpm
 from ._time import GAP_POLICIES as GAP_POLICIES
 from ._time import Clock as Clock
 from ._time import Sampling as Sampling
@@ -23,6 +25,7 @@ __all__ = [
     "CONVERSIONS",
     "GAP_POLICIES",
     "NAN_POLICIES",
+    "T200_VOLTAGES",
     "TIME_TOLERANCE",
     "Clock",
     "LogData",
@@ -35,5 +38,6 @@ __all__ = [
     "read_log",
     "survey_input",
     "synthetic_log",
+    "t200_rpm",
     "write_synthetic_log",
 ]
