@@ -127,27 +127,45 @@ def _rows_text(rows: np.ndarray) -> str:
     return f"data row{'s' if rows.size > 1 else ''} {shown}"
 
 
-def _warn_rpm_beyond_limit(model: Any, data: LogData) -> None:
-    """Warn, naming the rows, where logged thruster rpm exceed the vehicle's n_max
-    (issue 13 item 6): the thrust law (7) is used beyond its data there."""
+def _limits(model: Any, data: LogData) -> tuple[np.ndarray, np.ndarray] | None:
+    """The model's input limits: ``input_limits()`` where it has one, else +-n_max on
+    its rpm inputs; None if it has neither."""
+    if hasattr(model, "input_limits"):
+        lo, hi = (np.asarray(a, dtype=float) for a in model.input_limits())
+        return lo, hi
     n_max = getattr(model, "n_max", None)
-    rpm = [j for j, unit in enumerate(data.traj.input_units) if unit == "rpm"]
-    if n_max is None or not rpm:
+    rpm = np.array([unit == "rpm" for unit in data.traj.input_units])
+    if n_max is None or not rpm.any():
+        return None
+    hi = np.where(rpm, float(n_max), np.inf)
+    return -hi, hi
+
+
+def _warn_inputs_beyond_limits(model: Any, data: LogData) -> None:
+    """Warn, naming the rows, where logged inputs leave the model's limits, e.g.
+    thruster rpm beyond the vehicle's n_max (issue 13 item 6): the model saturates or
+    extrapolates there, and a unit mistake shows up here first."""
+    limits = _limits(model, data)
+    if limits is None:
         return
-    u = data.traj.u[:, rpm]
-    over = np.abs(u) > float(n_max)
-    bad = np.flatnonzero(over.any(axis=1))
+    lo, hi = limits
+    u = data.traj.u
+    excess = np.maximum(u - hi, lo - u)  # > 0 beyond a limit
+    bad = np.flatnonzero((excess > 0).any(axis=1))
     if bad.size == 0:
         return
     rows = data.rows[bad] if data.rows is not None else bad
-    k = int(np.argmax(np.abs(u[bad]).max(axis=1)))
-    j = int(np.argmax(np.abs(u[bad[k]])))
-    name = data.traj.input_names[rpm[j]]
+    i, j = np.unravel_index(int(np.argmax(excess[bad])), (bad.size, u.shape[1]))
+    n, unit = bad[i], data.traj.input_units[j]
+    name = data.traj.input_names[j]
+    is_n_max = getattr(model, "n_max", None) == hi[j] == -lo[j]
     warnings.warn(
-        f"{data.source}: logged thruster speeds exceed the vehicle's n_max = {float(n_max):g} "
-        f"rpm in {bad.size} of {data.traj.n_samples} samples ({_rows_text(rows)}); largest "
-        f"|{name}| = {abs(float(u[bad[k], j])):g} rpm. The model's thrust is extrapolated "
-        "there: check the log's units and the vehicle's thruster data.",
+        f"{data.source}: logged inputs beyond the model's limits in {bad.size} of "
+        f"{data.traj.n_samples} samples ({_rows_text(rows)}); largest: {name} = "
+        f"{u[n, j]:g} {unit}, limits [{lo[j]:g}, {hi[j]:g}] {unit}"
+        + (" (the vehicle's n_max)" if is_n_max else "")
+        + ". The model saturates or extrapolates there: check the log's units and the "
+        "vehicle's thruster data.",
         stacklevel=3,
     )
 
@@ -202,7 +220,7 @@ def evaluate_log(
     estimation = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        _warn_rpm_beyond_limit(model, data)
+        _warn_inputs_beyond_limits(model, data)
         for name in methods:
             m_est = _ESTIMATED.match(name)
             if m_est:
