@@ -32,6 +32,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             nan=args.nan,
             time_tolerance=args.time_tolerance,
             unwrap=not args.no_unwrap,
+            gaps=args.gaps,
+            max_missing=args.max_missing,
         )
     except FileNotFoundError as exc:
         raise ValueError(f"`--data`: {exc}") from exc
@@ -74,17 +76,25 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any) -> None:
     """Add the ``evaluate`` command to the subparsers ``sub``."""
+    from .logs import GAP_POLICIES, TIME_TOLERANCE
+
     ev = sub.add_parser(
         "evaluate",
         help="local errors of sampled-data models on a real log (CSV or Parquet)",
         description=(
             "Read a vehicle log (columns t, the 12 states and the thruster rpm, units in "
             "the header like x[m], phi[deg], n1[rpm], or a --mapping file), validate it "
-            "(uniform sampling, NaN policy, units, angle wrap-around), then print the "
-            "one-step local errors of each method. Nothing is written unless --out is given."
+            "(time as logged, dropped records, NaN policy, units, angle wrap-around), then "
+            "print the one-step local errors of each method. ROS bags and ArduSub DataFlash "
+            "logs are read through a --mapping file (docs/logs.md). Every choice made is "
+            "printed. Nothing is written unless --out is given."
         ),
     )
-    ev.add_argument("--data", required=True, help="log file (.csv or .parquet)")
+    ev.add_argument(
+        "--data",
+        required=True,
+        help="log: .csv, .parquet, ROS 2 bag directory, .db3, .mcap, ROS 1 .bag, ArduSub .bin",
+    )
     ev.add_argument(
         "--vehicle", required=True, help="built-in vehicle name or vehicle TOML file (or auv_like)"
     )
@@ -111,11 +121,28 @@ def add_parser(sub: Any) -> None:
     ev.add_argument(
         "--time-tolerance",
         type=float,
-        default=0.01,
-        help="largest relative deviation of a time step from h (default 0.01)",
+        default=TIME_TOLERANCE,
+        help="largest deviation of a time step from a whole number of periods, as a "
+        f"fraction of h (default {TIME_TOLERANCE})",
     )
     ev.add_argument(
-        "--mapping", default=None, help="TOML file mapping log columns to names and units"
+        "--gaps",
+        choices=list(GAP_POLICIES),
+        default="refuse",
+        help="dropped records: refuse (default), bridge up to --max-missing records in a "
+        "row (samples keep their logged times), or split the log into segments",
+    )
+    ev.add_argument(
+        "--max-missing",
+        type=int,
+        default=1,
+        help="longest run of dropped records --gaps bridge accepts (default 1)",
+    )
+    ev.add_argument(
+        "--mapping",
+        default=None,
+        help="TOML file: column names and units (CSV/Parquet), topics and frames (ROS bag), "
+        "messages and thruster curve (ArduSub); see docs/logs.md",
     )
     ev.add_argument("--no-unwrap", action="store_true", help="do not unwrap angles")
     ev.add_argument("--out", default=None, help="also write the table as CSV")

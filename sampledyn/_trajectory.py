@@ -1,4 +1,4 @@
-"""Uniformly sampled data: the value every layer passes along."""
+"""Sampled data: the value every layer passes along."""
 
 from __future__ import annotations
 
@@ -9,8 +9,19 @@ import numpy as np
 __all__ = ["Certificate", "Trajectory"]
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float, copy=True)
+def _frozen(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:
+    """A read-only copy of ``a`` as ``dtype``; an array that already has that dtype, is
+    C-ordered, read-only and owns its memory (nothing else can write to it) is taken as
+    it is, so that large results (5 M samples) are not copied on the way out."""
+    if (
+        isinstance(a, np.ndarray)
+        and a.dtype == dtype
+        and a.base is None
+        and not a.flags.writeable
+        and a.flags.c_contiguous
+    ):
+        return a
+    a = np.array(a, dtype=dtype, copy=True)
     a.setflags(write=False)
     return a
 
@@ -46,9 +57,7 @@ class Certificate:
     def __post_init__(self) -> None:
         object.__setattr__(self, "per_interval", _frozen(self.per_interval))
         object.__setattr__(self, "scale", _frozen(self.scale))
-        steps = np.array(self.steps, dtype=np.int64, copy=True)
-        steps.setflags(write=False)
-        object.__setattr__(self, "steps", steps)
+        object.__setattr__(self, "steps", _frozen(self.steps, np.int64))
 
     @property
     def max_error(self) -> float:
@@ -70,24 +79,29 @@ class Certificate:
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Uniformly sampled states and inputs (immutable).
+    """Sampled states and inputs (immutable).
 
     Attributes
     ----------
     t : ndarray, shape (N,)
-        Sample times t_n = t_0 + n h (s).
+        Sample times (s). Simulated data: t_n = n h. Logs: seconds from the first
+        sample, as logged (a log may be non-uniform: jitter, bridged gaps).
     x : ndarray, shape (N, nx)
         States at the sample times; for vehicles eta then v.
     u : ndarray, shape (N, nu)
         Inputs at the sample times (the value held over ``[t_n, t_{n+1})``).
     h : float
-        Sampling period (s).
+        Sampling period (s); for a non-uniform log the nominal period (median step).
     state_names, state_units : tuple of str, length nx
     input_names, input_units : tuple of str, length nu
     clean : Trajectory or None
         For measured (noisy) data, the noise-free samples they were made from.
     certificate : Certificate or None
         Accuracy certificate when the samples come from :func:`sampledyn.simulate`.
+    origin : str or None
+        Absolute time of the first sample (t = 0) as logged, e.g.
+        ``"2024-05-02T10:00:00.000000000+00:00"`` or ``"TimeUS = 51234000 us"``;
+        None for simulated data.
     """
 
     t: np.ndarray
@@ -100,6 +114,7 @@ class Trajectory:
     input_units: tuple[str, ...] = ()
     clean: Trajectory | None = field(default=None, repr=False)
     certificate: Certificate | None = field(default=None, repr=False)
+    origin: str | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         t = _frozen(self.t)
@@ -149,6 +164,11 @@ class Trajectory:
     @property
     def nu(self) -> int:
         return int(self.u.shape[1])
+
+    def is_uniform(self, rtol: float = 1e-6) -> bool:
+        """True if every step ``t[n+1] - t[n]`` is within ``rtol * h`` of ``h``."""
+        steps = np.diff(self.t)
+        return bool(steps.size == 0 or np.abs(steps - self.h).max() <= rtol * self.h)
 
     def replace(self, **changes: object) -> Trajectory:
         """A copy with some fields changed (``dataclasses.replace``)."""

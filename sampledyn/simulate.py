@@ -25,6 +25,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 from ._trajectory import Certificate, Trajectory
 from .models._base import RHS_TYPE, RO1, RO2, readonly
 from .models._base import index_switch as _index_switch
+from .signals import Signal
 
 __all__ = ["IntegrationError", "simulate"]
 
@@ -34,6 +35,10 @@ _B = np.ascontiguousarray(_dop.B)
 _C = np.ascontiguousarray(_dop.C[:_NS])
 _E3 = np.ascontiguousarray(_dop.E3)
 _E5 = np.ascontiguousarray(_dop.E5)
+
+
+# Sampling intervals per call of the compiled integrator.
+_CHUNK = 1 << 15
 
 
 class IntegrationError(RuntimeError):
@@ -119,7 +124,7 @@ _A2 = types.float64[:, ::1]
 _B1 = types.Array(types.boolean, 1, "C", readonly=True)
 _INTEGRATE_SIG = types.Tuple((types.int64, _F))(
     RHS_TYPE, RO1, RO1, RO1, RO2, RO1, RO2, RO2, RO2, _F, _F, types.boolean, types.int64,
-    types.int64, _F, RHS_TYPE, RO1, _B1, _A2, types.int64[::1], _A2,
+    types.int64, _F, RHS_TYPE, RO1, _B1, _A2, types.int64[::1], _A2, _B1,
 )  # fmt: skip
 
 
@@ -146,8 +151,14 @@ def _integrate(
     X,
     steps,
     diff,
+    restart,
 ):  # pragma: no cover - compiled
     """Integrate intervals n_start..n_stop-1; X[n_start] must hold the start state.
+
+    The nodes ``t`` are the sample times plus any input breakpoint between them. The
+    certifying half-step run restarts from X[n] only where ``restart[n]`` (a sample
+    time): across a breakpoint it goes on, so ``diff`` at the last node of a sampling
+    interval is the difference over the whole interval.
 
     Steps end exactly where a switching value ``sw(t, x, u, sp)`` crosses zero
     crosses zero, so no step straddles a point where f is not smooth (|v| v, n |n|).
@@ -179,7 +190,8 @@ def _integrate(
         hold_row = hold[n]
         for j in range(nx):
             y[j] = X[n, j]
-            yf[j] = X[n, j]
+            if restart[n]:
+                yf[j] = X[n, j]
         tc = ta
         _input_at(hold_row, offset, amp, freq, phase, tc, u)
         rhs(tc, y, u, p, k0)
@@ -330,59 +342,81 @@ def switching(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
     return _index_switch, sp, input_only
 
 
-def _warn_input_limits(model: Any, spec: Any, t: np.ndarray) -> None:
-    """Warn when the input leaves the model's ``input_limits()`` (lower, upper arrays of
-    shape (nu,); e.g. thruster rpm beyond n_max, where the vehicle saturates), saying
-    for how long in total and from when.
+class _InputLimits:
+    """Warn when the input leaves the model's ``input_limits()`` (lower, upper arrays
+    of shape (nu,); e.g. thruster rpm beyond n_max, where the vehicle saturates),
+    saying for how long in total and from when.
 
-    The input is evaluated inside every sampling interval as the integrator sees it
-    (the interval's held part plus the sinusoids) on a grid of at least 4 points per
-    interval and 256 per period of the fastest sinusoid; the time beyond a limit is
-    interpolated linearly between grid points.
+    The input is evaluated inside every integration interval as the integrator sees
+    it (the interval's held part plus the sinusoids) on a grid of at least 4 points
+    per interval and 256 per period of the fastest sinusoid; the time beyond a limit
+    is interpolated linearly between grid points. Fed chunk by chunk (:meth:`add`),
+    so the full-length input is never built; :meth:`warn` once at the end.
     """
-    limits = getattr(model, "input_limits", None)
-    if limits is None:
-        return
-    lo, hi = (np.asarray(a, dtype=float) for a in limits())
-    h = float(t[1] - t[0])
-    waves = bool(np.any(spec.amp))
-    m = max(4, math.ceil(256.0 * h * float(spec.freq_hz.max()))) if waves else 1
-    tau = h * np.arange(m + 1) / m
-    total, first, worst = 0.0, math.inf, np.zeros(lo.shape)
-    chunk = max(1, 100_000 // ((m + 1) * lo.size * max(1, spec.amp.shape[1])))
-    for a in range(0, t.size - 1, chunk):
-        tt = t[a : min(a + chunk, t.size - 1), None] + tau[None, :]  # (c, m + 1)
-        u = spec.hold[a : a + tt.shape[0], None, :] + spec.offset
-        if waves:
-            arg = 2.0 * np.pi * spec.freq_hz * tt[:, :, None, None] + spec.phase_rad
-            u = u + (spec.amp * np.sin(arg)).sum(axis=-1)
-        over = np.maximum(u - hi, lo - u)  # (c, m + 1, nu), > 0 beyond a limit
-        worst = np.maximum(worst, over.max(axis=(0, 1)))
-        e = over.max(axis=2)
-        ea, eb = e[:, :-1], e[:, 1:]
-        cross = (ea > 0) != (eb > 0)
-        part = np.where(ea > 0, ea, eb) / np.where(cross, np.abs(ea) + np.abs(eb), 1.0)
-        total += float(np.where(cross, part, (ea > 0) & (eb > 0)).sum()) * h / m
-        hit = np.flatnonzero(((ea > 0) | (eb > 0)).ravel())
-        if hit.size and not math.isfinite(first):
-            i, j = divmod(int(hit[0]), m)
-            lag = 0.0 if ea[i, j] > 0 else h / m * (1.0 - part[i, j])
-            first = float(tt[i, j]) + lag
-    if not math.isfinite(first):
-        return
-    names = getattr(model, "input_names", ()) or tuple(f"u{j + 1}" for j in range(lo.size))
-    units = getattr(model, "input_units", ()) or ("",) * lo.size
-    beyond = "; ".join(
-        f"{names[j]} beyond [{lo[j]:.6g}, {hi[j]:.6g}] {units[j]} by up to {worst[j]:.4g}"
-        for j in np.flatnonzero(worst > 0)
-    )
-    warnings.warn(
-        f"the input leaves the model's limits (`input_limits()`) for {total:.4g} s in total "
-        f"of {t[-1]:g} s, first at t = {first:.6g} s ({beyond}); the model saturates it "
-        "there.",
-        UserWarning,
-        stacklevel=3,
-    )
+
+    def __init__(self, model: Any) -> None:
+        limits: Any = getattr(model, "input_limits", None)
+        self.model = model
+        self.active = limits is not None
+        if self.active:
+            self.lo, self.hi = (np.asarray(a, dtype=float) for a in limits())
+            self.total, self.first = 0.0, math.inf
+            self.worst = np.zeros(self.lo.shape)
+
+    def add(self, spec: Any, t: np.ndarray) -> None:
+        """The intervals [t_k, t_k+1] of one chunk, with its InputSpec."""
+        if not self.active:
+            return
+        lo, hi = self.lo, self.hi
+        length = np.diff(t)
+        waves = bool(np.any(spec.amp))
+        m = (
+            max(4, math.ceil(256.0 * float(length.max()) * float(spec.freq_hz.max())))
+            if waves
+            else 1
+        )
+        frac = np.arange(m + 1) / m
+        chunk = max(1, 100_000 // ((m + 1) * lo.size * max(1, spec.amp.shape[1])))
+        for a in range(0, t.size - 1, chunk):
+            b = min(a + chunk, t.size - 1)
+            tt = t[a:b, None] + length[a:b, None] * frac[None, :]  # (c, m + 1)
+            u = spec.hold[a:b, None, :] + spec.offset
+            if waves:
+                arg = 2.0 * np.pi * spec.freq_hz * tt[:, :, None, None] + spec.phase_rad
+                u = u + (spec.amp * np.sin(arg)).sum(axis=-1)
+            over = np.maximum(u - hi, lo - u)  # (c, m + 1, nu), > 0 beyond a limit
+            self.worst = np.maximum(self.worst, over.max(axis=(0, 1)))
+            e = over.max(axis=2)
+            ea, eb = e[:, :-1], e[:, 1:]
+            cross = (ea > 0) != (eb > 0)
+            part = np.where(ea > 0, ea, eb) / np.where(cross, np.abs(ea) + np.abs(eb), 1.0)
+            inside = np.where(cross, part, (ea > 0) & (eb > 0))
+            self.total += float((inside * length[a:b, None]).sum()) / m
+            hit = np.flatnonzero(((ea > 0) | (eb > 0)).ravel())
+            if hit.size and not math.isfinite(self.first):
+                i, j = divmod(int(hit[0]), m)
+                lag = 0.0 if ea[i, j] > 0 else length[a + i] / m * (1.0 - part[i, j])
+                self.first = float(tt[i, j]) + lag
+
+    def warn(self, t_end: float) -> None:
+        if not self.active or not math.isfinite(self.first):
+            return
+        lo = self.lo
+        model = self.model
+        names = getattr(model, "input_names", ()) or tuple(f"u{j + 1}" for j in range(lo.size))
+        units = getattr(model, "input_units", ()) or ("",) * lo.size
+        beyond = "; ".join(
+            f"{names[j]} beyond [{lo[j]:.6g}, {self.hi[j]:.6g}] {units[j]} by up to "
+            f"{self.worst[j]:.4g}"
+            for j in np.flatnonzero(self.worst > 0)
+        )
+        warnings.warn(
+            f"the input leaves the model's limits (`input_limits()`) for {self.total:.4g} s "
+            f"in total of {t_end:g} s, first at t = {self.first:.6g} s ({beyond}); the "
+            "model saturates it there.",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 def _check_period(h: Any, T: Any) -> int:
@@ -432,11 +466,31 @@ def simulate(
     certify : bool
         Attach a :class:`~sampledyn.Certificate` (costs about twice the work).
     progress : bool
-        Show a progress bar (the integration runs in 50 chunks).
+        Show a progress bar.
 
     Returns
     -------
-    Trajectory with ``t`` shape (N,), ``x`` shape (N, nx), ``u`` shape (N, nu).
+    Trajectory with ``t`` shape (N,), ``x`` shape (N, nx), ``u`` shape (N, nu);
+    ``u`` is the input at the sample times.
+
+    Raises
+    ------
+    ValueError
+        for a signal whose held part changes inside a sampling interval at a time its
+        ``breakpoints()`` does not list (found at interval midpoints), naming the
+        interval.
+    IntegrationError
+        if the integrator cannot meet its tolerance.
+
+    Notes
+    -----
+    Inputs between samples are integrated exactly: where the signal's held part jumps
+    inside a sampling interval (:meth:`~sampledyn.signals.Signal.breakpoints`, e.g. a
+    :class:`~sampledyn.signals.ZeroOrderHold` of commands stamped off the grid), the
+    integration stops at the jump and goes on with the new value; the certificate then
+    covers the whole sampling interval (its half-step run is not restarted at the
+    jump). Memory: about the returned arrays plus one N x nx array of differences
+    when certifying.
     """
     n_int = _check_period(h, T)
     if not hasattr(model, "kernel"):
@@ -460,70 +514,40 @@ def simulate(
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
 
-    t = float(h) * np.arange(n_int + 1)
-    spec = signal.spec(t)
-    _warn_input_limits(model, spec, t)
-    rhs, p = model.kernel()
-    sw, sp, sw_input_only = switching(model)
-    X = np.empty((n_int + 1, model.nx))
-    X[0] = x0
-    steps = np.zeros(n_int, dtype=np.int64)
-    diff = np.zeros((n_int, model.nx))
-    chunks = np.linspace(0, n_int, 51 if progress else 2).round().astype(int)
+    # t_n = n h (the same values as h * arange, without the integer temporary)
+    t = np.arange(n_int + 1, dtype=float)
+    t *= float(h)
+    nodes, sample_node = _nodes(signal, t)
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=n_int, desc=f"simulate T={T:g} s h={h:g} s", unit="interval")
-    dt = float(h)
+    limits = _InputLimits(model)
     try:
-        for a, b in zip(chunks[:-1], chunks[1:], strict=True):
-            status, dt = _integrate(
-                rhs,
-                readonly(p),
-                readonly(t),
-                readonly(x0),
-                readonly(spec.hold),
-                readonly(spec.offset),
-                readonly(spec.amp),
-                readonly(spec.freq_hz),
-                readonly(spec.phase_rad),
-                float(rtol),
-                float(atol),
-                bool(certify),
-                int(a),
-                int(b),
-                dt,
-                sw,
-                readonly(sp),
-                _readonly_bool(sw_input_only),
-                X,
-                steps,
-                diff,
-            )
-            if status != 0:
-                bad = int(np.argmax(steps[a:b] == 0)) + int(a)
-                what = "step size underflow" if status == 1 else "NaN or inf in the state"
-                raise IntegrationError(
-                    f"{what} in the interval starting at t={t[bad]:g} s; the model may "
-                    "diverge there or the tolerance may be too tight."
-                )
-            if bar is not None:
-                bar.update(int(b - a))
+        X, steps, diff = _run(
+            model, signal, nodes, sample_node, x0, rtol, atol, certify, bar, limits
+        )
     finally:
         if bar is not None:
             bar.close()
-
+    limits.warn(float(t[-1]))
     certificate = None
-    if certify:
-        scale = np.maximum(1.0, np.abs(X).max(axis=0))
+    if diff is not None:
+        # max |x| as max(max x, -min x): the same numbers as np.abs(X).max(0), without
+        # an N x nx temporary
+        scale = np.maximum(1.0, np.maximum(X.max(axis=0), -X.min(axis=0)))
         certificate = Certificate(
-            per_interval=(np.abs(diff) / scale).max(axis=1), scale=scale, steps=steps, rtol=rtol
+            per_interval=_owned_readonly(_scaled_row_max(diff, scale)),
+            scale=scale,
+            steps=_owned_readonly(steps),
+            rtol=rtol,
         )
+    u = signal(t)
     return Trajectory(
-        t=t,
-        x=X,
-        u=signal(t),
+        t=_owned_readonly(t),
+        x=_owned_readonly(X),
+        u=_owned_readonly(u),
         h=float(h),
         state_names=model.state_names,
         state_units=model.state_units,
@@ -531,3 +555,168 @@ def simulate(
         input_units=model.input_units,
         certificate=certificate,
     )
+
+
+def _run(
+    model: Any,
+    signal: Any,
+    nodes: np.ndarray,
+    sample_node: np.ndarray | None,
+    x0: np.ndarray,
+    rtol: float,
+    atol: float,
+    certify: bool,
+    bar: Any,
+    limits: _InputLimits,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Integrate over ``nodes`` in chunks of sampling intervals.
+
+    Returns the samples X (N, nx), the internal steps per sampling interval (N - 1,)
+    and, when certifying, the per-interval differences of the half-step run (N - 1, nx).
+    The held input is built per chunk, so memory stays near the size of the result;
+    dt carries over from chunk to chunk, so the numbers do not depend on the chunking.
+    """
+    rhs, p = model.kernel()
+    sw, sp, sw_input_only = switching(model)
+    n_int = nodes.shape[0] - 1 if sample_node is None else sample_node.shape[0] - 1
+    X = np.empty((nodes.shape[0], model.nx))
+    X[0] = x0
+    steps = np.zeros(nodes.shape[0] - 1, dtype=np.int64)
+    restart = np.ones(nodes.shape[0], dtype=np.bool_)
+    if sample_node is not None:
+        restart[:] = False
+        restart[sample_node] = True
+    restart.setflags(write=False)
+    # Differences of the certifying run: kept for every sampling interval only when
+    # certifying (the certificate's scale needs all samples first); otherwise, and at
+    # breakpoint nodes, a scratch block the kernel writes into.
+    diff = np.empty((n_int, model.nx)) if certify else None
+    scratch = np.empty((0, model.nx))
+    # the first step proposal: h
+    dt = float(nodes[1 if sample_node is None else sample_node[1]] - nodes[0])
+    for k0 in range(0, n_int, _CHUNK):
+        k1 = min(k0 + _CHUNK, n_int)
+        a, b = (k0, k1) if sample_node is None else (int(sample_node[k0]), int(sample_node[k1]))
+        spec = signal.spec(nodes[a : b + 1])
+        _check_held(signal, nodes[a : b + 1], spec.hold)
+        limits.add(spec, nodes[a : b + 1])
+        if diff is not None and sample_node is None:
+            d_out = diff[k0:k1]
+        else:
+            if scratch.shape[0] < b - a:
+                scratch = np.empty((b - a, model.nx))
+            d_out = scratch[: b - a]
+        status, dt = _integrate(
+            rhs,
+            readonly(p),
+            readonly(nodes[a : b + 1]),
+            readonly(x0),
+            readonly(spec.hold),
+            readonly(spec.offset),
+            readonly(spec.amp),
+            readonly(spec.freq_hz),
+            readonly(spec.phase_rad),
+            float(rtol),
+            float(atol),
+            bool(certify),
+            0,
+            b - a,
+            dt,
+            sw,
+            readonly(sp),
+            _readonly_bool(sw_input_only),
+            X[a : b + 1],
+            steps[a:b],
+            d_out,
+            restart[a : b + 1],
+        )
+        if status != 0:
+            bad = int(np.argmax(steps[a:b] == 0)) + a
+            what = "step size underflow" if status == 1 else "NaN or inf in the state"
+            raise IntegrationError(
+                f"{what} in the interval starting at t={nodes[bad]:g} s; the model may "
+                "diverge there or the tolerance may be too tight."
+            )
+        if diff is not None and sample_node is not None:
+            # the difference over a sampling interval is the one at its last node
+            diff[k0:k1] = d_out[sample_node[k0 + 1 : k1 + 1] - a - 1]
+        if bar is not None:
+            bar.update(k1 - k0)
+    if sample_node is not None:
+        X = X[sample_node]
+        steps = np.add.reduceat(steps, sample_node[:-1])
+    return X, steps, diff
+
+
+def _scaled_row_max(diff: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``(np.abs(diff) / scale).max(axis=1)``, the same numbers, computed inside
+    ``diff``'s own memory, which is then shrunk to the result: the N x nx array is
+    gone before the inputs are evaluated, and no second N-array is needed."""
+    n, nx = diff.shape
+    flat = diff.reshape(-1)  # a view
+    block = max(1, _CHUNK // nx)
+    for a in range(0, n, block):
+        rows = diff[a : a + block]
+        np.abs(rows, out=rows)
+        rows /= scale
+        # row r's result goes to flat[r], inside rows <= r already reduced
+        flat[a : a + rows.shape[0]] = rows.max(axis=1)
+    del flat, rows
+    diff.resize((n,), refcheck=False)
+    return diff
+
+
+def _owned_readonly(a: np.ndarray) -> np.ndarray:
+    """Hand a freshly made array to a Trajectory without a copy (it keeps read-only
+    arrays that own their memory as they are)."""
+    if a.base is not None or not a.flags.c_contiguous:
+        a = np.ascontiguousarray(a).copy()
+    a.setflags(write=False)
+    return a
+
+
+def _check_held(signal: Any, nodes: np.ndarray, hold: np.ndarray) -> None:
+    """Raise if the held part of ``signal`` changes inside an integration interval
+    without a declared breakpoint (checked at each interval's midpoint): such an
+    input would be integrated wrongly, held at its value at the interval's start."""
+    if getattr(type(signal), "hold_values", Signal.hold_values) is Signal.hold_values:
+        return
+    mid = 0.5 * (nodes[:-1] + nodes[1:])
+    changed = np.flatnonzero((signal.hold_values(mid) != hold[:-1]).any(axis=1))
+    if changed.size:
+        n = int(changed[0])
+        raise ValueError(
+            f"the held part of `signal` ({type(signal).__name__}) changes inside the "
+            f"interval [{nodes[n]:.9g}, {nodes[n + 1]:.9g}] s (its value at {mid[n]:.9g} s "
+            "differs from the one at the interval's start) and breakpoints() does not "
+            "list that time: the input would be integrated wrongly. Override "
+            "breakpoints() to return the times of the jumps."
+        )
+
+
+def _nodes(signal: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Integration nodes: the sample times ``t`` plus every breakpoint of the signal's
+    held part strictly inside a sampling interval; and the node index of each sample
+    (None when the nodes are the sample times).
+
+    Raises ValueError for a breakpoint outside the grid's span (a signal bug)."""
+    get = getattr(signal, "breakpoints", None)
+    breaks = np.unique(np.asarray(get(t), dtype=float)) if get is not None else np.empty(0)
+    if breaks.size == 0:
+        return t, None
+    if not np.isfinite(breaks).all() or breaks[0] <= t[0] or breaks[-1] >= t[-1]:
+        raise ValueError(
+            f"{type(signal).__name__}.breakpoints() must lie strictly inside "
+            f"({t[0]:g}, {t[-1]:g}) s, got {breaks[0]:g}..{breaks[-1]:g} s."
+        )
+    nodes = np.concatenate([t, breaks])
+    order = np.argsort(nodes, kind="stable")
+    nodes = nodes[order]
+    if np.any(np.diff(nodes) <= 0):
+        i = int(np.argmax(np.diff(nodes) <= 0))
+        raise ValueError(
+            f"{type(signal).__name__}.breakpoints() returned {float(nodes[i + 1]):.9g} s, "
+            "which is a sample time; breakpoints must lie strictly between sample times."
+        )
+    sample_node = np.flatnonzero(order < t.shape[0])
+    return nodes, sample_node

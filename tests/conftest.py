@@ -1,10 +1,14 @@
-"""Shared test helpers: small models with closed-form solutions."""
+"""Shared test helpers: small models with closed-form solutions; the example log."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.linalg import expm
+
+EXAMPLE_LOG = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
 
 
 class LinearModel:
@@ -34,3 +38,19 @@ class LinearModel:
 @pytest.fixture
 def damped_oscillator() -> LinearModel:
     return LinearModel(np.array([[0.0, 1.0], [-4.0, -0.4]]))
+
+
+@pytest.fixture(scope="session")
+def vehicle():
+    """The BlueROV2 Heavy vehicle model."""
+    import sampledyn as sd
+
+    return sd.models.load_vehicle("bluerov2_heavy")
+
+
+@pytest.fixture(scope="session")
+def frame():
+    """The example log (examples/rov_log.csv) as a DataFrame (do not modify)."""
+    import pandas as pd
+
+    return pd.read_csv(EXAMPLE_LOG)

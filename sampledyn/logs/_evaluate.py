@@ -16,6 +16,7 @@ from ..methods import get_method
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
 from ._read import LogData
+from ._units import LogFormatError
 
 __all__ = ["LogEvaluation", "evaluate_log"]
 
@@ -69,6 +70,106 @@ def _norms(
     return out
 
 
+def _segment(data: LogData, a: int, b: int) -> Any:
+    """Rows [a, b) of the log as a Trajectory of their own (times as logged)."""
+    tr = data.traj
+    return tr.replace(t=tr.t[a:b], x=tr.x[a:b], u=tr.u[a:b])
+
+
+def _refuse_nonuniform(data: LogData) -> None:
+    """The rules predict on a uniform grid only; say why a log is not one.
+
+    This is the one place that refuses non-uniform time: the variable-step rules
+    (prediction on the logged stamps) lift it by predicting on such segments instead.
+    """
+    smp = data.sampling
+    for a, b in data.segments:
+        if _segment(data, a, b).is_uniform():
+            continue
+        h = data.traj.h
+        steps = np.diff(data.traj.t[a:b])
+        if smp is not None and not smp.uniform:
+            one = steps[np.rint(steps / h) == 1]
+            why = (
+                f"its time stamps are jittered (one-period steps {one.min():.6g}.."
+                f"{one.max():.6g} s, up to {data.jitter:.2%} of h = {h:.6g} s) "
+                "and are kept as logged, not snapped to a grid"
+            )
+        else:
+            n = int(np.argmax(np.abs(steps - h) > 1e-6 * h)) + a
+            what = "bridged gaps of dropped records" if smp is not None else "non-uniform steps"
+            why = (
+                f"it has {what} (first: a step of {data.traj.t[n + 1] - data.traj.t[n]:.6g} s "
+                f"at t = {data.traj.t[n]:.6g} s, h = {h:.6g} s)"
+            )
+        raise LogFormatError(
+            "t",
+            f"{data.source}: {why}; one-step prediction on non-uniform time stamps needs "
+            "variable-step rules, which are not available yet. Evaluate a uniform log, or "
+            "split this one at its gaps (gaps='split', --gaps split) if its segments are "
+            "uniform.",
+        )
+
+
+def _rows_text(rows: np.ndarray) -> str:
+    """1-based data rows as ranges: 'data rows 4-7, 12'."""
+    rows = np.asarray(rows) + 1
+    runs: list[str] = []
+    start = prev = int(rows[0])
+    for r in [*map(int, rows[1:]), None]:
+        if r is not None and r == prev + 1:
+            prev = r
+            continue
+        runs.append(f"{start}-{prev}" if prev > start else f"{start}")
+        if r is not None:
+            start = prev = r
+    shown = ", ".join(runs[:6]) + (f", ... ({len(runs) - 6} more ranges)" if len(runs) > 6 else "")
+    return f"data row{'s' if rows.size > 1 else ''} {shown}"
+
+
+def _limits(model: Any, data: LogData) -> tuple[np.ndarray, np.ndarray] | None:
+    """The model's input limits: ``input_limits()`` where it has one, else +-n_max on
+    its rpm inputs; None if it has neither."""
+    if hasattr(model, "input_limits"):
+        lo, hi = (np.asarray(a, dtype=float) for a in model.input_limits())
+        return lo, hi
+    n_max = getattr(model, "n_max", None)
+    rpm = np.array([unit == "rpm" for unit in data.traj.input_units])
+    if n_max is None or not rpm.any():
+        return None
+    hi = np.where(rpm, float(n_max), np.inf)
+    return -hi, hi
+
+
+def _warn_inputs_beyond_limits(model: Any, data: LogData) -> None:
+    """Warn, naming the rows, where logged inputs leave the model's limits, e.g.
+    thruster rpm beyond the vehicle's n_max (issue 13 item 6): the model saturates or
+    extrapolates there, and a unit mistake shows up here first."""
+    limits = _limits(model, data)
+    if limits is None:
+        return
+    lo, hi = limits
+    u = data.traj.u
+    excess = np.maximum(u - hi, lo - u)  # > 0 beyond a limit
+    bad = np.flatnonzero((excess > 0).any(axis=1))
+    if bad.size == 0:
+        return
+    rows = data.rows[bad] if data.rows is not None else bad
+    i, j = np.unravel_index(int(np.argmax(excess[bad])), (bad.size, u.shape[1]))
+    n, unit = bad[i], data.traj.input_units[j]
+    name = data.traj.input_names[j]
+    is_n_max = getattr(model, "n_max", None) == hi[j] == -lo[j]
+    warnings.warn(
+        f"{data.source}: logged inputs beyond the model's limits in {bad.size} of "
+        f"{data.traj.n_samples} samples ({_rows_text(rows)}); largest: {name} = "
+        f"{u[n, j]:g} {unit}, limits [{lo[j]:g}, {hi[j]:g}] {unit}"
+        + (" (the vehicle's n_max)" if is_n_max else "")
+        + ". The model saturates or extrapolates there: check the log's units and the "
+        "vehicle's thruster data.",
+        stacklevel=3,
+    )
+
+
 def evaluate_log(
     model: Any,
     data: LogData,
@@ -83,7 +184,8 @@ def evaluate_log(
     ----------
     model : Model
     data : LogData
-        From :func:`read_log`.
+        From :func:`read_log`. A log split at dropped records (``gaps="split"``) is
+        predicted segment by segment; the norms run over all segments together.
     methods : sequence of str
         Registry names ("E", "AB2", "RK4", "T", ...). Runge-Kutta stages use the
         logged input held over each interval (zero-order hold). An estimated rule
@@ -97,13 +199,28 @@ def evaluate_log(
     Returns
     -------
     LogEvaluation
+
+    Raises
+    ------
+    LogFormatError
+        for a log (segment) whose time is not uniform (jitter, bridged gaps): the
+        message names the jitter or the gap; for an estimated rule on a split log.
     """
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
+    _refuse_nonuniform(data)
+    segments = data.segments
+    if len(segments) > 1 and any(_ESTIMATED.match(name) for name in methods):
+        raise LogFormatError(
+            "estimate",
+            f"{data.source}: estimation on a log split into {len(segments)} segments is not "
+            "supported; estimate on a log without gaps (or one segment of it).",
+        )
     rows: list[dict[str, Any]] = []
     estimation = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        _warn_inputs_beyond_limits(model, data)
         for name in methods:
             m_est = _ESTIMATED.match(name)
             if m_est:
@@ -112,7 +229,10 @@ def evaluate_log(
                 history, order = s, s
             else:
                 method = get_method(name)
-                x_hat = predict(method, model, data.traj)
+                x_hat = np.full(data.traj.x.shape, np.nan)
+                for a, b in segments:
+                    if b - a >= 2:
+                        x_hat[a:b] = predict(method, model, _segment(data, a, b))
                 history = int(getattr(method, "history", 1))
                 order = int(method.order)
             err = local_errors(x_hat, data.traj)

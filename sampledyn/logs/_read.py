@@ -8,32 +8,37 @@ n_r1..n_r8, or n1..n8), each with its unit in the header, ``x[m]``, ``phi[deg]``
     [columns]
     "North (ft)" = { name = "x", unit = "ft" }
     "roll" = { unit = "deg" }          # name defaults to the column's
+    "stamp" = { name = "t" }           # date-times / ISO-8601 text need no unit
+
+An unknown section, key or column in the mapping file is an error naming it.
 
 Checks, in order, before anything else happens (the first failure raises
 :class:`LogFormatError` naming the column or row):
 
 1. every needed column is present once, with a known unit of the right kind;
-2. t is finite and strictly increasing, and uniformly sampled: every step within
-   ``time_tolerance`` (relative) of the median step h;
-3. NaN in states or inputs, by the ``nan`` policy: "error" (default); "interpolate"
+2. NaN in states or inputs, by the ``nan`` policy: "error" (default); "interpolate"
    (linear in time inside the log, rows at either end trimmed); "drop" (the rows are
    filled for computation but no error is counted on a sample whose prediction
    uses or targets them);
+3. time as logged (see :mod:`sampledyn.logs._time`): any clock (s, ms, us, ns, min,
+   integer counters, date-times, ISO-8601 text) becomes seconds from the first sample,
+   exactly where the source is exact; the absolute start is kept
+   (``Trajectory.origin``). Steps must be whole numbers of periods within
+   ``time_tolerance``; dropped records follow the ``gaps`` policy ("refuse", "bridge"
+   up to ``max_missing`` records in a row, "split" into segments). A uniform log gets
+   t = n h; a jittered one keeps its stamps (never snapped to a grid);
 4. units: converted to the model's; roll/pitch beyond pi rad or angle steps beyond
    3 pi are reported as a likely deg/rad mix-up;
 5. angles are unwrapped (a heading that wraps from 180 deg to -180 deg would
    otherwise look like a 2 pi jump to every predictor).
 
-Accepted sampling jitter is absorbed: the samples are placed on the uniform grid
-``t_0 + n h`` with h the mean step.
+Every choice made is written to ``LogData.notes`` (printed by ``sampledyn evaluate``).
 """
 
 from __future__ import annotations
 
 import math
 import os
-import tomllib
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,11 +46,16 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
+from ._mapping import load_toml, table_mapping
+from ._time import Sampling, check_policy, read_clock, sampling
 from ._units import LogFormatError, conversion_factor, split_header
 
-__all__ = ["NAN_POLICIES", "LogData", "log_from_frame", "read_log"]
+__all__ = ["NAN_POLICIES", "TIME_TOLERANCE", "LogData", "log_from_frame", "read_log"]
 
 NAN_POLICIES = ("error", "drop", "interpolate")
+
+# Default largest deviation of a step from a whole number of periods (fraction of h).
+TIME_TOLERANCE = 0.25
 
 
 @dataclass(frozen=True)
@@ -55,16 +65,22 @@ class LogData:
     Attributes
     ----------
     traj : Trajectory
-        Samples on the uniform grid, states and inputs in the model's units.
+        States and inputs in the model's units; ``t`` in s from the first sample (n h
+        on a uniform log, the logged stamps on a jittered one), ``origin`` the
+        absolute start as logged.
     valid : ndarray of bool, shape (N,)
         False for rows that held NaN under ``nan="drop"`` (filled by interpolation
         so that f can be evaluated; not to be counted).
     source : str
         File name.
     jitter : float
-        Largest |t_{n+1} - t_n - h| / h of the log.
+        Largest |t_{n+1} - t_n - m h| / h of the log (0 on a uniform log).
     notes : tuple of str
-        What was done to the data (conversions, unwrapping, NaN handling).
+        What was done to the data (time rule, gaps, conversions, unwrapping, NaN).
+    sampling : Sampling or None
+        The sampling rule applied: uniform or jittered, h, gaps, segments.
+    rows : ndarray of int, shape (N,), or None
+        Data row of the source (0-based) of each sample.
     """
 
     traj: Trajectory
@@ -72,35 +88,21 @@ class LogData:
     source: str
     jitter: float
     notes: tuple[str, ...]
+    sampling: Sampling | None = None
+    rows: np.ndarray | None = None
+
+    @property
+    def segments(self) -> tuple[tuple[int, int], ...]:
+        """Row ranges [start, stop) evaluated on their own (one unless the log was
+        split at dropped records)."""
+        if self.sampling is None:
+            return ((0, self.traj.n_samples),)
+        return self.sampling.segments
 
 
 def _row(i: int, csv: bool) -> str:
     """Data row i (0-based) as the user sees it: 1-based, and its line in a CSV."""
     return f"data row {i + 1}" + (f" (line {i + 2})" if csv else "")
-
-
-def _load_mapping(mapping: Any) -> dict[str, dict[str, str]]:
-    if mapping is None:
-        return {}
-    if isinstance(mapping, Mapping):
-        raw = dict(mapping)
-    else:
-        path = Path(mapping)
-        if not path.is_file():
-            raise LogFormatError("mapping", f"`mapping`: no file {str(path)!r}.")
-        try:
-            raw = tomllib.loads(path.read_text())
-        except tomllib.TOMLDecodeError as exc:
-            raise LogFormatError("mapping", f"`mapping` {str(path)!r}: not TOML: {exc}") from exc
-    cols = raw.get("columns", raw)
-    out: dict[str, dict[str, str]] = {}
-    for col, entry in cols.items():
-        if not isinstance(entry, Mapping) or not set(entry) <= {"name", "unit"}:
-            raise LogFormatError(
-                "mapping", f"`mapping`: entry {col!r} must be a table with `name` and/or `unit`."
-            )
-        out[str(col)] = {k: str(v) for k, v in entry.items()}
-    return out
 
 
 def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
@@ -113,13 +115,16 @@ def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
 
 
 def _columns(
-    frame: Any, model: Any, mapping: dict[str, dict[str, str]], src: str
+    columns: list[Any], model: Any, mapping: Any, src: str
 ) -> dict[str, tuple[str, str | None]]:
     """Model quantity -> (log column, unit) for t, every state and every input."""
+    states, inputs = _aliases(model)
+    quantities = ["t", "time", *(n for a in states for n in a), *(n for a in inputs for n in a)]
+    entries = table_mapping(load_toml(mapping), columns, quantities, src)
     found: dict[str, tuple[str, str | None]] = {}
-    for col in frame.columns:
+    for col in columns:
         name, unit = split_header(str(col))
-        entry = mapping.get(str(col), {})
+        entry = entries.get(str(col), {})
         name = entry.get("name", name)
         unit = entry.get("unit", unit)
         if name == "time":
@@ -129,7 +134,6 @@ def _columns(
                 str(col), f"{src}: two columns for {name!r}: {found[name][0]!r} and {str(col)!r}."
             )
         found[name] = (str(col), unit)
-    states, inputs = _aliases(model)
     out: dict[str, tuple[str, str | None]] = {}
     missing = []
     for names in [("t",), *states, *inputs]:
@@ -142,7 +146,7 @@ def _columns(
             raise LogFormatError(hit[1], f"{src}: columns {cols} all give {names[0]!r}.")
         out[names[0]] = found[hit[0]]
     if missing:
-        have = ", ".join(repr(str(c)) for c in frame.columns)
+        have = ", ".join(repr(str(c)) for c in columns)
         raise LogFormatError(
             "columns",
             f"{src}: missing column {missing[0]}"
@@ -150,42 +154,13 @@ def _columns(
             + f"; the log has {have}. Name columns like 'x[m]', or map them with a mapping file.",
         )
     for name, (col, unit) in out.items():
-        if unit is None:
+        if unit is None and name != "t":  # a date-time clock needs no unit (checked later)
             raise LogFormatError(
                 col,
                 f"{src}: column {col!r} ({name}) has no unit; write it as '{name}[unit]' in "
                 "the header or give it in a mapping file.",
             )
     return out
-
-
-def _check_time(t: np.ndarray, tol: float, src: str, csv: bool) -> tuple[float, float]:
-    if t.size < 3:
-        raise LogFormatError("t", f"{src}: need at least 3 samples, got {t.size}.")
-    bad = ~np.isfinite(t)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise LogFormatError("t", f"{src}: t is NaN or inf at {_row(i, csv)}.")
-    d = np.diff(t)
-    if (d <= 0).any():
-        i = int(np.argmax(d <= 0))
-        raise LogFormatError(
-            "t",
-            f"{src}: t is not strictly increasing at {_row(i + 1, csv)}: t = {t[i + 1]:.9g} s "
-            f"after {t[i]:.9g} s.",
-        )
-    h = float(np.median(d))
-    dev = np.abs(d - h) / h
-    if (dev > tol).any():
-        i = int(np.argmax(dev > tol))
-        raise LogFormatError(
-            "t",
-            f"{src}: t is not uniformly sampled: between {_row(i, csv)} and {_row(i + 1, csv)} "
-            f"t jumps from {t[i]:.9g} s to {t[i + 1]:.9g} s (gap {d[i]:.6g} s; h = {h:.6g} s, "
-            f"tolerance {tol:.2%} of h). Split the log there, resample it, or raise "
-            "`time_tolerance`.",
-        )
-    return h, float(dev.max())
 
 
 def _fill(values: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -198,7 +173,7 @@ def _fill(values: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def _nan_policy(
-    data: np.ndarray, t: np.ndarray, cols: list[str], nan: str, src: str, csv: bool
+    data: np.ndarray, cols: list[str], nan: str, src: str, csv: bool
 ) -> tuple[slice, np.ndarray, list[str]]:
     """Rows to keep (a slice), validity per kept row, notes."""
     finite = np.isfinite(data)
@@ -260,21 +235,24 @@ def log_from_frame(
     source: str = "<frame>",
     mapping: Any = None,
     nan: str = "error",
-    time_tolerance: float = 0.01,
+    time_tolerance: float = TIME_TOLERANCE,
     unwrap: bool = True,
     csv: bool = False,
+    gaps: str = "refuse",
+    max_missing: int = 1,
+    notes: tuple[str, ...] = (),
 ) -> LogData:
-    """Validate a pandas DataFrame as a log of ``model`` (see the module docstring)."""
+    """Validate a pandas DataFrame as a log of ``model`` (see the module docstring).
+
+    ``notes`` are prepended to the log's notes (how a bag or DataFlash log was
+    turned into this frame). Other parameters: :func:`read_log`.
+    """
     if nan not in NAN_POLICIES:
         raise LogFormatError("nan", f"`nan` must be one of {', '.join(NAN_POLICIES)}, got {nan!r}.")
-    if not (time_tolerance > 0 and math.isfinite(time_tolerance)):
-        raise LogFormatError(
-            "time_tolerance", f"`time_tolerance` must be > 0, got {time_tolerance}."
-        )
-    cols = _columns(frame, model, _load_mapping(mapping), source)
+    check_policy(gaps, max_missing, time_tolerance)
+    cols = _columns(list(frame.columns), model, mapping, source)
     states, inputs = _aliases(model)
-    targets = {"t": "s"}
-    targets |= dict(zip(model.state_names, model.state_units, strict=True))
+    targets = dict(zip(model.state_names, model.state_units, strict=True))
     targets |= {a[0]: u for a, u in zip(inputs, model.input_units, strict=True)}
     factors = {}
     for n, target in targets.items():
@@ -290,43 +268,74 @@ def log_from_frame(
         except (TypeError, ValueError) as exc:
             raise LogFormatError(col, f"{source}: column {col!r} is not numeric: {exc}") from exc
 
-    t = numbers("t") * factors["t"]
-    h, jitter = _check_time(t, time_tolerance, source, csv)
     names = [*model.state_names, *(a[0] for a in inputs)]
     data = np.column_stack([numbers(n) * factors[n] for n in names])
-    keep, valid, notes = _nan_policy(data, t, [cols[n][0] for n in names], nan, source, csv)
-    t, data = t[keep], data[keep]
+    keep, valid, nan_notes = _nan_policy(data, [cols[n][0] for n in names], nan, source, csv)
+    data = data[keep]
+
+    def row(i: int) -> str:
+        return _row(keep.start + i, csv)
+
+    tcol, tunit = cols["t"]
+    clock = read_clock(frame[tcol].iloc[keep], tunit, tcol, source, row)
+    smp = sampling(
+        clock,
+        tolerance=time_tolerance,
+        gaps=gaps,
+        max_missing=max_missing,
+        src=source,
+        row=row,
+    )
+    t = smp.t
     nx = model.nx
     _check_angles(data[:, :nx], model, cols, source)
+    out_notes = [*notes, *smp.notes, *nan_notes]
     converted = [
         f"{cols[n][0]} ({cols[n][1]} -> {targets[n]})" for n in targets if factors[n] != 1.0
     ]
     if converted:
-        notes.append("converted " + ", ".join(converted))
+        out_notes.append("converted " + ", ".join(converted))
     if unwrap:  # before any filling, so that no interpolation spans a wrap-around
         for k, unit in enumerate(model.state_units):
             if unit == "rad":
                 ok = np.isfinite(data[:, k])
                 w = np.unwrap(data[ok, k])
                 if not np.array_equal(w, data[ok, k]):
-                    notes.append(f"{model.state_names[k]} unwrapped")
+                    out_notes.append(f"{model.state_names[k]} unwrapped")
                     data[ok, k] = w
     if not np.isfinite(data).all():
         data = _fill(data, t)
-    x, u = data[:, :nx], data[:, nx:]
-    n_rows = t.size
-    h_mean = (t[-1] - t[0]) / (n_rows - 1)
     traj = Trajectory(
-        t=t[0] + h_mean * np.arange(n_rows),
-        x=x,
-        u=u,
-        h=h_mean,
+        t=t,
+        x=data[:, :nx],
+        u=data[:, nx:],
+        h=smp.h,
         state_names=tuple(model.state_names),
         state_units=tuple(model.state_units),
         input_names=tuple(model.input_names),
         input_units=tuple(model.input_units),
+        origin=clock.origin,
     )
-    return LogData(traj, valid, source, jitter, tuple(notes))
+    rows = np.arange(keep.start, keep.stop)
+    return LogData(traj, valid, source, smp.jitter, tuple(out_notes), smp, rows)
+
+
+def _table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
+    """A CSV or Parquet file as a DataFrame; a CSV's time column is read as text, so
+    that decimal stamps (1700000000.123456789) are read exactly."""
+    import pandas as pd
+
+    parquet = path.suffix.lower() in (".parquet", ".pq")
+    try:
+        if parquet:
+            return pd.read_parquet(path), False
+        header = pd.read_csv(path, skipinitialspace=True, nrows=0)
+        tcol = _columns(list(header.columns), model, mapping, path.name)["t"][0]
+        return pd.read_csv(path, skipinitialspace=True, dtype={tcol: str}), True
+    except (ValueError, OSError, pd.errors.ParserError) as exc:
+        if isinstance(exc, LogFormatError):
+            raise
+        raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
 
 
 def read_log(
@@ -335,49 +344,70 @@ def read_log(
     *,
     mapping: Any = None,
     nan: str = "error",
-    time_tolerance: float = 0.01,
+    time_tolerance: float = TIME_TOLERANCE,
     unwrap: bool = True,
+    gaps: str = "refuse",
+    max_missing: int = 1,
 ) -> LogData:
-    """Read a CSV or Parquet log of ``model`` and validate it (module docstring).
+    """Read a log of ``model`` and validate it (module docstring).
 
     Parameters
     ----------
     path : str or path
-        ``.csv`` (any other suffix is read as CSV too) or ``.parquet``/``.pq``.
+        A table: ``.csv`` (any other suffix is read as CSV too) or ``.parquet``/``.pq``;
+        a ROS bag: a ROS 2 bag directory (``metadata.yaml``), a ``.db3``/``.mcap`` file,
+        or a ROS 1 ``.bag`` (extra ``sampledyn[ros]``); an ArduSub DataFlash log
+        ``.bin`` (extra ``sampledyn[ardusub]``). Bags and DataFlash logs need a
+        ``mapping`` (see ``docs/logs.md``).
     model : Model
         The vehicle the log is of; its state and input names and units are expected.
     mapping : path or mapping, optional
-        Column names and units for logs whose header does not follow ``name[unit]``.
+        Column names and units for tables whose header does not follow ``name[unit]``;
+        topics and frames for bags; messages and the servo-to-thruster curve for
+        DataFlash logs.
     nan : {"error", "drop", "interpolate"}
     time_tolerance : float
-        Largest accepted relative deviation of a time step from the median step.
+        Largest accepted deviation of a time step from a whole number of periods, as a
+        fraction of h (default 0.25); a step farther off is an error.
     unwrap : bool
         Unwrap angles (default True).
+    gaps : {"refuse", "bridge", "split"}
+        Dropped records (a step of m > 1 periods): refuse (default), bridge gaps of up
+        to ``max_missing`` records (the samples keep their logged times), or split the
+        log into segments evaluated on their own. Nothing is ever interpolated.
+    max_missing : int
+        Longest run of missing records ``gaps="bridge"`` accepts (default 1).
 
     Raises
     ------
     LogFormatError (a ValueError)
-        naming the column or the first bad row.
+        naming the column, option or the first bad row.
     FileNotFoundError
         if there is no file at ``path``.
     """
-    import pandas as pd
-
     path = Path(path)
+    options: dict[str, Any] = {
+        "nan": nan,
+        "time_tolerance": time_tolerance,
+        "unwrap": unwrap,
+        "gaps": gaps,
+        "max_missing": max_missing,
+    }
+    if path.is_dir() or path.suffix.lower() in (".bag", ".db3", ".mcap"):
+        from ._ros import read_bag
+
+        return read_bag(path, model, mapping=mapping, **options)
     if not path.is_file():
         raise FileNotFoundError(f"no log file {str(path)!r}.")
-    parquet = path.suffix.lower() in (".parquet", ".pq")
-    try:
-        frame = pd.read_parquet(path) if parquet else pd.read_csv(path, skipinitialspace=True)
-    except (ValueError, OSError, pd.errors.ParserError) as exc:
-        raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
-    return log_from_frame(
-        frame,
-        model,
-        source=path.name,
-        mapping=mapping,
-        nan=nan,
-        time_tolerance=time_tolerance,
-        unwrap=unwrap,
-        csv=not parquet,
-    )
+    if path.suffix.lower() in (".bin", ".log") and _is_dataflash(path):
+        from ._ardusub import read_dataflash
+
+        return read_dataflash(path, model, mapping=mapping, **options)
+    frame, csv = _table(path, model, mapping)
+    return log_from_frame(frame, model, source=path.name, mapping=mapping, csv=csv, **options)
+
+
+def _is_dataflash(path: Path) -> bool:
+    """A binary DataFlash log starts with a message header 0xA3 0x95."""
+    with path.open("rb") as fh:
+        return fh.read(2) == b"\xa3\x95"

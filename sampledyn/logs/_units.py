@@ -21,7 +21,7 @@ _DEG = math.pi / 180.0
 
 # The model's unit -> {unit a log may use: factor to the model's unit}.
 CONVERSIONS: dict[str, dict[str, float]] = {
-    "s": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0},
+    "s": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0},
     "m": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "km": 1e3, "ft": 0.3048},
     "rad": {"rad": 1.0, "deg": _DEG, "°": _DEG},
     "m/s": {

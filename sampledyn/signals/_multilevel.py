@@ -92,14 +92,25 @@ class Multilevel(Signal):
 
 
 class ZeroOrderHold(Signal):
-    """Zero-order hold of sampled inputs: u(t) = u_n on ``[t_n, t_{n+1})``.
+    """Zero-order hold of sampled inputs: u(t) = u_k on ``[t_k, t_{k+1})``.
+
+    The stamps ``t`` need not be sample times of the grid the signal is simulated on:
+    :func:`sampledyn.simulate` stops its integration at every stamp that falls inside
+    a sampling interval and changes the value (see :meth:`breakpoints`), so a 40 ms
+    pulse inside a 0.1 s interval is integrated exactly.
 
     Parameters
     ----------
     t : ndarray, shape (N,)
-        Strictly increasing sample times (s).
+        Strictly increasing stamps (s).
     u : ndarray, shape (N, nu) or (N,)
-        Input samples.
+        Input values from each stamp on.
+
+    Notes
+    -----
+    A time within ``slack`` (s) of a stamp counts as that stamp (a grid time n h
+    computed in floating point lands on the stamp it means): ``slack`` is
+    1e-9 of the smallest step, at least 64 rounding units of the largest |t|.
     """
 
     def __init__(self, t: np.ndarray, u: np.ndarray) -> None:
@@ -113,6 +124,8 @@ class ZeroOrderHold(Signal):
             )
         if t.size < 1 or np.any(np.diff(t) <= 0):
             raise ValueError("`t` must be non-empty and strictly increasing.")
+        if not np.isfinite(t).all():
+            raise ValueError(f"`t` holds NaN or inf at stamp {int(np.argmax(~np.isfinite(t)))}.")
         if not np.isfinite(u).all():
             raise ValueError(
                 f"`u` holds NaN or inf at sample {int(np.argmax(~np.isfinite(u).all(1)))}."
@@ -122,11 +135,28 @@ class ZeroOrderHold(Signal):
         self.nu = u.shape[1]
         self.names = tuple(f"u{i + 1}" for i in range(self.nu))
         self.units = ("",) * self.nu
+        rounding = 64 * np.finfo(float).eps * float(np.abs(t).max())
+        step = float(np.diff(t).min()) if t.size > 1 else 0.0
+        self.slack = max(_GRID_SLACK * step, rounding)
 
     def hold_values(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t, dtype=float)
-        span = self.t[-1] - self.t[0] if self.t.size > 1 else 1.0
-        idx = np.searchsorted(self.t, t + _GRID_SLACK * span, side="right") - 1
+        idx = np.searchsorted(self.t, t + self.slack, side="right") - 1
         if np.any(idx < 0):
             raise ValueError(f"ZeroOrderHold starts at t = {self.t[0]}; asked for {t.min()}.")
         return self.u[idx]
+
+    def breakpoints(self, t: np.ndarray) -> np.ndarray:
+        """Stamps where the value changes that lie strictly inside an interval of the
+        grid ``t`` (more than ``slack`` from every grid time), shape (M,)."""
+        grid = np.asarray(t, dtype=float)
+        change = np.flatnonzero((self.u[1:] != self.u[:-1]).any(axis=1)) + 1
+        s = self.t[change]
+        if s.size == 0 or grid.size < 2:
+            return np.empty(0)
+        # The first grid time whose hold sees the jump at s: s <= t_j + slack.
+        j = np.searchsorted(grid + self.slack, s, side="left")
+        inside = (j > 0) & (j < grid.size)
+        jj = np.minimum(j, grid.size - 1)
+        off_grid = inside & (s < grid[jj] - self.slack)
+        return s[off_grid]

@@ -1,0 +1,444 @@
+"""Time as logged: any clock to seconds from the first sample, and the sampling rule.
+
+Clocks read (the column's unit in the header or mapping file):
+
+========================  ===========================  ==============================
+column holds              unit                         resolution taken as
+========================  ===========================  ==============================
+numbers (float)           s, ms, us (or µs), ns, min   one rounding unit of the
+                                                       largest stamp (float64)
+integers (a counter)      s, ms, us, ns, min           one count
+decimal text (CSV)        s, ms, us, ns, min           the last printed decimal
+                                                       (read exactly, not as float)
+date-times (datetime64)   none, or "datetime"          the dtype's unit (ns)
+ISO-8601 text             none, or "datetime"          the last printed decimal
+========================  ===========================  ==============================
+
+Every clock becomes an exact integer count where the source is exact (counters,
+decimal text, date-times, ISO-8601 text), and the offsets from the first sample are
+taken on those integers: a Unix time of 1.7e9 s loses nothing, and t0 + n h is never
+formed at 1.7e9. A date-time column never passes as a number: a unit such as "s" on
+it is an error. ISO-8601 text with a time-zone offset is converted to UTC; text
+without one is taken as it is (offsets do not depend on the zone); a mix is an error.
+
+Sampling (on the offsets): h0 is the median step; every step must be within
+``tolerance`` h0 of a whole number m >= 1 of periods (else the log is irregular and
+refused). Steps with m > 1 are dropped records (m - 1 missing), handled by the gap
+policy. The log is *uniform* if every stamp lies within the clock's resolution of the
+grid n h (h = span / number of periods): its times are then n h exactly. Otherwise it
+is *jittered*: the stamps are kept as logged (never snapped to a grid) and h is the
+median of the one-period steps.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+import numpy as np
+
+from ._units import LogFormatError
+
+__all__ = ["CLOCK_UNITS", "GAP_POLICIES", "TIME_UNITS", "Clock", "Sampling", "read_clock"]
+
+# unit -> (multiplier, divisor) taking the unit to seconds exactly in integer steps
+TIME_UNITS: dict[str, tuple[int, int]] = {
+    "s": (1, 1),
+    "ms": (1, 1_000),
+    "us": (1, 1_000_000),
+    "µs": (1, 1_000_000),
+    "ns": (1, 1_000_000_000),
+    "min": (60, 1),
+}
+CLOCK_UNITS = ("datetime", "iso8601")
+GAP_POLICIES = ("refuse", "bridge", "split")
+
+_DECIMAL = re.compile(r"^\s*([+-]?)(\d*)(?:\.(\d*))?\s*$")
+_ZONE = re.compile(r"(?:Z|[+-]\d\d(?::?\d\d)?)$")
+_UNIX_RANGE = (631_152_000, 4_102_444_800)  # 1990-01-01 .. 2100-01-01 (s)
+
+
+@dataclass(frozen=True)
+class Clock:
+    """A time column read as offsets from its first stamp.
+
+    Attributes
+    ----------
+    offsets : ndarray, shape (N,)
+        Seconds from the first stamp (float64), from exact integer differences where
+        the source is exact.
+    origin : str
+        The first stamp as logged (and its UTC date where it reads as one).
+    resolution : float
+        Finest step the stamps can express (s).
+    kind : str
+        How the column was read, for the notes.
+    """
+
+    offsets: np.ndarray
+    origin: str
+    resolution: float
+    kind: str
+
+
+def _unix(seconds: float) -> str:
+    if _UNIX_RANGE[0] <= seconds <= _UNIX_RANGE[1]:
+        iso = datetime.fromtimestamp(seconds, UTC).isoformat(timespec="microseconds")
+        return f" (as Unix time: {iso})"
+    return ""
+
+
+def _from_ticks(ticks: np.ndarray, per_second: float, mult: int) -> np.ndarray:
+    """Offsets (s) from integer ticks of 1/per_second unit; exact integer difference."""
+    diff = ticks - ticks[0]
+    return diff.astype(np.float64) / per_second * mult
+
+
+def _check_increasing(t: np.ndarray, column: str, src: str, row: Callable[[int], str]) -> None:
+    d = np.diff(t)
+    if (d <= 0).any():
+        i = int(np.argmax(d <= 0))
+        raise LogFormatError(
+            "t",
+            f"{src}: t is not strictly increasing at {row(i + 1)}: the stamp in column "
+            f"{column!r} is {t[i + 1] - t[0]:.9g} s after the first, the one before "
+            f"{t[i] - t[0]:.9g} s.",
+        )
+
+
+def _datetimes(values: Any, column: str, src: str, row: Callable[[int], str]) -> Clock:
+    import pandas as pd
+
+    s = pd.Series(values)
+    if s.isna().any():
+        raise LogFormatError("t", f"{src}: t is missing (NaT) at {row(int(np.argmax(s.isna())))}.")
+    aware = getattr(s.dtype, "tz", None) is not None
+    naive = s.dt.tz_convert("UTC").dt.tz_localize(None) if aware else s
+    ns = np.asarray(naive, dtype="datetime64[ns]").view(np.int64)
+    unit = np.datetime_data(np.asarray(naive).dtype)[0] if not aware else "ns"
+    first = pd.Timestamp(naive.iloc[0]).isoformat()
+    origin = f"{first}+00:00" if aware else f"{first} (no time zone)"
+    clock = Clock(
+        _from_ticks(ns, 1e9, 1),
+        origin,
+        {"s": 1.0, "ms": 1e-3, "us": 1e-6}.get(str(unit), 1e-9),
+        "date-times" + (" (UTC)" if aware else ""),
+    )
+    _check_increasing(clock.offsets, column, src, row)
+    return clock
+
+
+def _iso(text: Any, column: str, src: str, row: Callable[[int], str]) -> Clock:
+    import pandas as pd
+
+    s = pd.Series(text, dtype=object).astype(str).str.strip()
+    zoned = s.str.contains(_ZONE)
+    if zoned.any() and not zoned.all():
+        i = int(np.argmax(~zoned if zoned.iloc[0] else zoned))
+        raise LogFormatError(
+            "t",
+            f"{src}: column {column!r} mixes ISO-8601 times with and without a time zone "
+            f"(first change at {row(i)}: {s.iloc[i]!r}); give every stamp a zone.",
+        )
+    try:
+        stamps = pd.to_datetime(s, format="ISO8601", utc=bool(zoned.all()))
+    except (ValueError, TypeError) as exc:
+        bad = pd.to_datetime(s, format="ISO8601", errors="coerce").isna()
+        i = int(np.argmax(bad.to_numpy()))
+        raise LogFormatError(
+            "t",
+            f"{src}: column {column!r} is neither numbers nor ISO-8601 date-times "
+            f"({row(i)}: {s.iloc[i]!r}): {exc}",
+        ) from None
+    fraction = s.str.extract(r"T?\d\d:\d\d:\d\d\.(\d+)", expand=False).str.len()
+    digits = int(min(9, fraction.max())) if fraction.notna().any() else 0
+    clock = _datetimes(stamps, column, src, row)
+    kind = "ISO-8601 text" + (", converted to UTC" if zoned.all() else ", no time zone")
+    return Clock(clock.offsets, clock.origin, 10.0**-digits, kind)
+
+
+def _decimal_text(
+    text: Any, unit: str, column: str, src: str, row: Callable[[int], str]
+) -> Clock | None:
+    """Exact read of decimal numbers written as text; None if some are not plain
+    decimals (e.g. '1.7e9'), or too long to be exact in 64-bit integers."""
+    s = np.asarray(text, dtype=object).astype(str)
+    parts = [_DECIMAL.match(v) for v in s]
+    if not all(p is not None and (p.group(2) or p.group(3)) for p in parts):
+        return None
+    sign = np.array([-1 if p.group(1) == "-" else 1 for p in parts], dtype=np.int64)  # type: ignore[union-attr]
+    whole = [p.group(2) or "0" for p in parts]  # type: ignore[union-attr]
+    frac = [p.group(3) or "" for p in parts]  # type: ignore[union-attr]
+    digits = max(len(f) for f in frac)
+    values = [int(w + f.ljust(digits, "0")) for w, f in zip(whole, frac, strict=True)]
+    if max(values) >= 2**62:  # not exact in 64-bit integers: read as float instead
+        return None
+    ticks = sign * np.array(values, dtype=np.int64)
+    mult, div = TIME_UNITS[unit]
+    offsets = _from_ticks(ticks, 10.0**digits * div, mult)
+    first = s[0].strip()
+    origin = f"{first} {unit}" + _unix(float(first) * mult / div)
+    clock = Clock(
+        offsets, origin, 10.0**-digits * mult / div, f"decimal text in {unit} (read exactly)"
+    )
+    _check_increasing(clock.offsets, column, src, row)
+    return clock
+
+
+def read_clock(
+    values: Any, unit: str | None, column: str, src: str, row: Callable[[int], str]
+) -> Clock:
+    """Read a time column (see the module docstring).
+
+    Parameters
+    ----------
+    values : array-like or pandas Series, shape (N,)
+    unit : str or None
+        The column's unit from the header or mapping file.
+    column, src : str
+        Column and file names for messages.
+    row : callable
+        Row index -> how the user sees that row ("data row 5 (line 6)").
+
+    Raises
+    ------
+    LogFormatError
+        naming the column: a unit that does not fit what the column holds (a
+        date-time column with "s"), NaN or NaT stamps, text that is neither numbers
+        nor ISO-8601, stamps that do not increase.
+    """
+    import pandas as pd
+
+    dtype = getattr(values, "dtype", np.asarray(values).dtype)
+    is_datetime = pd.api.types.is_datetime64_any_dtype(dtype)
+    if unit is not None and unit not in TIME_UNITS and unit not in CLOCK_UNITS:
+        raise LogFormatError(
+            column,
+            f"{src}: column {column!r}: unknown time unit {unit!r}; accepted: "
+            f"{', '.join(TIME_UNITS)} for numbers, 'datetime' for date-times.",
+        )
+    if is_datetime:
+        if unit in TIME_UNITS:
+            raise LogFormatError(
+                column,
+                f"{src}: column {column!r} holds date-times ({dtype}), not numbers in "
+                f"{unit!r}: drop the unit or give unit = 'datetime'.",
+            )
+        return _datetimes(values, column, src, row)
+    if unit in CLOCK_UNITS:
+        if dtype.kind in "O" or str(dtype).startswith(("string", "str")):
+            return _iso(values, column, src, row)
+        raise LogFormatError(
+            column,
+            f"{src}: column {column!r} holds numbers ({dtype}), not date-times: give its "
+            f"unit ({', '.join(TIME_UNITS)}).",
+        )
+    if dtype.kind == "O" or str(dtype).startswith(("string", "str")):
+        if unit is not None:
+            clock = _decimal_text(values, unit, column, src, row)
+            if clock is not None:
+                return clock
+            try:
+                values = np.asarray(values, dtype=float)
+            except ValueError as exc:
+                raise LogFormatError(
+                    column, f"{src}: column {column!r} is not numeric: {exc}"
+                ) from exc
+            dtype = values.dtype
+        else:
+            return _iso(values, column, src, row)
+    if unit is None:
+        raise LogFormatError(
+            column,
+            f"{src}: column {column!r} (t) has no unit; write it as 't[s]' (or ms, us, ns) "
+            "in the header or give it in a mapping file.",
+        )
+    mult, div = TIME_UNITS[unit]
+    if dtype.kind in "iu":
+        ticks = np.asarray(values, dtype=np.int64)
+        clock = Clock(
+            _from_ticks(ticks, float(div), mult),
+            f"{int(ticks[0])} {unit}" + _unix(int(ticks[0]) * mult / div),
+            mult / div,
+            f"integer counter in {unit}",
+        )
+        _check_increasing(clock.offsets, column, src, row)
+        return clock
+    try:
+        t = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise LogFormatError(column, f"{src}: column {column!r} is not numeric: {exc}") from exc
+    bad = ~np.isfinite(t)
+    if bad.any():
+        raise LogFormatError("t", f"{src}: t is NaN or inf at {row(int(np.argmax(bad)))}.")
+    _check_increasing(t, column, src, row)
+    offsets = (t - t[0]) / div * mult
+    resolution = float(np.spacing(np.abs(t).max())) / div * mult
+    first = float(t[0])
+    return Clock(
+        offsets, f"{first!r} {unit}" + _unix(first * mult / div), resolution, f"numbers in {unit}"
+    )
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How a log is sampled (see the module docstring).
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Sample times (s from the first sample): n h on a uniform log (with gaps where
+        records are missing), the logged offsets on a jittered one.
+    h : float
+        Sampling period (uniform) or nominal period (median one-period step).
+    uniform : bool
+        Every stamp within the clock's resolution of the grid.
+    jitter : float
+        Largest |t_{n+1} - t_n - m h| / h over the steps (m periods each).
+    gaps : tuple of (int, int)
+        (row before the gap, records missing) for every dropped-record gap.
+    segments : tuple of (int, int)
+        Row ranges [start, stop) evaluated on their own (one unless split).
+    notes : tuple of str
+        The rule applied, for the output.
+    """
+
+    t: np.ndarray
+    h: float
+    uniform: bool
+    jitter: float
+    gaps: tuple[tuple[int, int], ...]
+    segments: tuple[tuple[int, int], ...]
+    notes: tuple[str, ...]
+
+
+def sampling(
+    clock: Clock,
+    *,
+    tolerance: float,
+    gaps: str,
+    max_missing: int,
+    src: str,
+    row: Callable[[int], str],
+) -> Sampling:
+    """Classify the steps of ``clock`` and apply the gap policy (module docstring).
+
+    Raises
+    ------
+    LogFormatError
+        "t" for fewer than 3 samples or an irregular step; "gaps" for dropped records
+        that the policy refuses (naming the first, its rows and times).
+    """
+    t = clock.offsets
+    if t.size < 3:
+        raise LogFormatError("t", f"{src}: need at least 3 samples, got {t.size}.")
+    d = np.diff(t)
+    h0 = float(np.median(d))
+    m = np.rint(d / h0).astype(np.int64)
+    off = np.abs(d - m * h0)
+    bad = (m < 1) | (off > tolerance * h0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise LogFormatError(
+            "t",
+            f"{src}: t is not uniformly sampled: between {row(i)} and {row(i + 1)} t jumps "
+            f"from {t[i]:.9g} s to {t[i + 1]:.9g} s (step {d[i]:.6g} s; h = {h0:.6g} s, the "
+            f"median step), not within {tolerance:.2%} of a whole number of periods. Split "
+            "the log there, or raise `time_tolerance`.",
+        )
+    idx = np.concatenate([[0], np.cumsum(m)])
+    h_grid = float(t[-1] / idx[-1])
+    grid_dev = float(np.abs(t - idx * h_grid).max())
+    rounding = 8 * np.finfo(float).eps * float(t[-1])
+    uniform = grid_dev <= clock.resolution + rounding
+    notes = [f"time: {clock.kind}; t = 0 at {clock.origin}"]
+    if uniform:
+        h = h_grid
+        times = idx * h
+        jitter = 0.0
+        within = (
+            f" (every stamp within {grid_dev:.2g} s of n h: the clock's resolution, "
+            f"{clock.resolution:.2g} s)"
+            if grid_dev > rounding
+            else ""
+        )
+        notes.append(f"sampling: uniform, h = {h:.9g} s{within}")
+    else:
+        one = m == 1
+        h = float(np.median(d[one])) if one.any() else h0
+        times = t
+        steps = d[one] if one.any() else d
+        jitter = float((np.abs(d - m * h) / h).max())
+        notes.append(
+            f"sampling: jittered, one-period steps {steps.min():.6g}..{steps.max():.6g} s "
+            f"(up to {jitter:.2%} of h = {h:.6g} s, the median step); the time stamps are "
+            "kept as logged, not snapped to a grid"
+        )
+    gap_rows = np.flatnonzero(m > 1)
+    gap_list = tuple((int(i), int(m[i] - 1)) for i in gap_rows)
+    segments: tuple[tuple[int, int], ...] = ((0, int(t.size)),)
+    if gap_list:
+        missing = sum(k for _, k in gap_list)
+        first, k = gap_list[0]
+        where = (
+            f"{k} record{'s' if k > 1 else ''} missing between {row(first)} and "
+            f"{row(first + 1)} (t = {times[first]:.9g} s to {times[first + 1]:.9g} s)"
+        )
+        more = f" and {len(gap_list) - 1} more gap(s)" if len(gap_list) > 1 else ""
+        if gaps == "refuse":
+            raise LogFormatError(
+                "gaps",
+                f"{src}: dropped records: {where}"
+                + (f"{more}, {missing} in all" if more else "")
+                + ". Nothing is resampled; choose a gap policy: `gaps`='bridge' (with "
+                "`max_missing`) or 'split' (--gaps).",
+            )
+        if gaps == "bridge":
+            worst = max(gap_list, key=lambda g: g[1])
+            if worst[1] > max_missing:
+                i, k = worst
+                raise LogFormatError(
+                    "gaps",
+                    f"{src}: {k} records missing between {row(i)} and {row(i + 1)} "
+                    f"(t = {times[i]:.9g} s to {times[i + 1]:.9g} s), more than "
+                    f"`max_missing` = {max_missing} bridges; raise it or split the log "
+                    "(--gaps split).",
+                )
+            notes.append(
+                f"gaps: bridged {len(gap_list)} gap(s) of dropped records ({missing} missing; "
+                f"first: {where}); the samples keep their logged times across each gap, "
+                "nothing is interpolated"
+            )
+        else:
+            bounds = [0, *(int(i) + 1 for i, _ in gap_list), int(t.size)]
+            segments = tuple(zip(bounds[:-1], bounds[1:], strict=True))
+            notes.append(
+                f"gaps: split at {len(gap_list)} gap(s) of dropped records ({missing} "
+                f"missing; first: {where}) into {len(segments)} segments of "
+                f"{', '.join(str(b - a) for a, b in segments)} samples, each evaluated on "
+                "its own; nothing is interpolated"
+            )
+    return Sampling(times, h, bool(uniform), jitter, gap_list, segments, tuple(notes))
+
+
+def check_policy(gaps: str, max_missing: Any, tolerance: Any) -> None:
+    """Validate the sampling options before any reading (errors name the argument)."""
+    if gaps not in GAP_POLICIES:
+        raise LogFormatError(
+            "gaps", f"`gaps` must be one of {', '.join(GAP_POLICIES)}, got {gaps!r}."
+        )
+    if isinstance(max_missing, bool) or not isinstance(max_missing, int) or max_missing < 1:
+        raise LogFormatError(
+            "max_missing", f"`max_missing` must be a positive int, got {max_missing!r}."
+        )
+    if not (
+        isinstance(tolerance, int | float) and math.isfinite(tolerance) and 0 < tolerance < 0.5
+    ):
+        raise LogFormatError(
+            "time_tolerance",
+            f"`time_tolerance` must be in (0, 0.5) (a fraction of h), got {tolerance!r}.",
+        )
