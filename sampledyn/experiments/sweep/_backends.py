@@ -250,8 +250,10 @@ def check_dask_workers(client: Any) -> list[str]:
 
 
 def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kwargs: Any) -> Any:
-    """A ``distributed.LocalCluster`` of worker processes without the nanny's
-    :data:`DASK_WORKER_ENVIRON` settings (other keyword arguments are passed on).
+    """A ``distributed.LocalCluster`` of worker processes started without the
+    variables of :data:`DASK_WORKER_ENVIRON`, whether Dask's nanny or this process's
+    environment would give them; they are removed from this process's environment
+    too (other keyword arguments are passed on).
 
     Use it as ``with local_cluster(2) as cluster:`` and pass
     ``scheduler=cluster.scheduler_address`` to :func:`run_sweep`.
@@ -259,10 +261,13 @@ def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kwargs: Any
     import dask
     from distributed import LocalCluster
 
-    environ = {
-        f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in DASK_WORKER_ENVIRON.items()
-    }
-    with dask.config.set(environ):
+    config = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in DASK_WORKER_ENVIRON.items()}
+    # A nanny also sets its variables in the process that runs it (here), and the
+    # workers inherit this process's environment. glibc read them when this process
+    # started, so they act only on processes started later: remove them for good.
+    for name in DASK_WORKER_ENVIRON:
+        os.environ.pop(name, None)
+    with dask.config.set(config):
         return LocalCluster(
             n_workers=n_workers,
             threads_per_worker=threads_per_worker,

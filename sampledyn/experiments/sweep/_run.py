@@ -39,7 +39,7 @@ from ._backends import (
 from ._compute import ChunkResult
 from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
 from ._plan import Cell, Chunk, PlannedGroup, Study, cell_order, plan_study, vehicle_label
-from ._store import ResultStore
+from ._store import ResultStore, inspect_store
 
 __all__ = ["LEASE_SECONDS", "SweepSummary", "check_grid_size", "run_sweep"]
 
@@ -197,7 +197,7 @@ def _count_stored(study: Study, path: Path, retry_failed: bool) -> int:
     """Cells of ``study`` stored at ``path`` (read-only; 0 if there is no store)."""
     if not path.exists() or path.stat().st_size == 0:
         return 0
-    with ResultStore(path, readonly=True) as st:
+    with ResultStore(path, readonly=True, no_side_files=True) as st:
         if st.count("cells") == 0:
             return 0
         found = 0
@@ -427,8 +427,7 @@ def run_sweep(
 
 def _inspect_before_work(path: Path) -> None:
     """Fail now, before any work, on a store path that cannot become a store."""
-    if path.exists():
-        ResultStore(path, create=False, readonly=True).close()
+    if inspect_store(path) != "missing":  # raises for a folder or a foreign file
         if not os.access(path, os.W_OK):
             raise PermissionError(13, "the results store is not writable", str(path))
         return

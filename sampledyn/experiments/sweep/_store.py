@@ -64,6 +64,7 @@ __all__ = [
     "Claim",
     "NotAStoreError",
     "ResultStore",
+    "inspect_store",
     "load_results",
 ]
 
@@ -228,7 +229,7 @@ def _process_alive(pid: int) -> bool:
     return True
 
 
-def _inspect(path: Path) -> str:
+def inspect_store(path: Path) -> str:
     """ "missing", "empty" (0 bytes), "store" or "older" (schema 1); raise for anything
     else. Reads the file's header and, only for a database without an application id,
     its table names (immutable, so nothing is created or written)."""
@@ -313,8 +314,11 @@ class ResultStore:
         Create the store if there is no file at ``path`` (its folder too).
     readonly : bool
         Open for reading only (SQLite ``mode=ro``; on read-only media where SQLite
-        cannot create its shared-memory file, ``immutable=1``). Nothing is written,
-        not even a lock file.
+        cannot create its shared-memory file, ``immutable=1``). The store is never
+        written; SQLite may create its ``-wal``/``-shm`` side files next to it.
+    no_side_files : bool
+        With ``readonly``: if no other connection has the store open (no ``-wal``
+        file), read it immutable, creating no side file at all (for dry runs).
 
     Attributes
     ----------
@@ -340,12 +344,18 @@ class ResultStore:
     """
 
     def __init__(
-        self, path: str | os.PathLike[str], *, create: bool = True, readonly: bool = False
+        self,
+        path: str | os.PathLike[str],
+        *,
+        create: bool = True,
+        readonly: bool = False,
+        no_side_files: bool = False,
     ) -> None:
         self.path = Path(path)
         self.readonly = readonly
+        self._no_side_files = no_side_files
         self.created = False
-        kind = _inspect(self.path)
+        kind = inspect_store(self.path)
         if kind == "missing" and (readonly or not create):
             raise FileNotFoundError(errno.ENOENT, "no results store", str(self.path))
         if readonly:
@@ -379,7 +389,12 @@ class ResultStore:
 
     def _connect_readonly(self) -> sqlite3.Connection:
         last: sqlite3.Error | None = None
-        for params in ({"mode": "ro"}, {"immutable": "1"}):
+        modes = [{"mode": "ro"}, {"immutable": "1"}]
+        if self._no_side_files and not Path(str(self.path) + "-wal").exists():
+            # No write-ahead log: no connection has the store open, the file holds
+            # everything, and an immutable open reads it without creating -wal/-shm.
+            modes.reverse()
+        for params in modes:
             conn = sqlite3.connect(_uri(self.path, **params), uri=True, timeout=60.0)
             try:
                 conn.execute("SELECT COUNT(*) FROM meta").fetchone()
