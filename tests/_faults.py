@@ -155,8 +155,13 @@ def wait_for_cells(db: Path, n: int, proc: subprocess.Popen[str], timeout: float
 
 
 def query(db: Path, sql: str) -> list[tuple[Any, ...]]:
-    with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=30) as conn:
-        return conn.execute(sql).fetchall()
+    """``sql`` on the store ``db``, read-only (immutable on read-only media)."""
+    try:
+        with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=30) as conn:
+            return conn.execute(sql).fetchall()
+    except sqlite3.OperationalError:
+        with sqlite3.connect(f"file:{db}?immutable=1", uri=True) as conn:
+            return conn.execute(sql).fetchall()
 
 
 def _mount(*args: str) -> None:

@@ -278,7 +278,7 @@ def test_version_and_quiet(tmp_path, capsys):
 
 
 def test_advise_seed_and_json(tmp_path, capsys):
-    base = ["advise", "--h", "0.1", "--methods", "E,AB4", "--T", "20", "--seeds", "1",
+    base = ["advise", "--h", "0.1", "--methods", "E,AB4", "--T", "10", "--seeds", "1",
             "--format", "json", "--out", str(tmp_path)]  # fmt: skip
     docs = {}
     for seed in (0, 0, 7):
@@ -366,18 +366,17 @@ def test_non_plotting_commands_do_not_import_matplotlib(tmp_path):
     db = tmp_path / "r.db"
     commands = [
         ["methods"],
-        ["sweep", str(cfg), "--store", str(db), "-q"],
+        ["sweep", str(cfg), "--store", str(db), "--no-progress"],
         ["results", str(db), "--format", "csv"],
         ["evaluate", "--data", str(EXAMPLE_LOG), "--vehicle", "bluerov2_heavy", "--methods", "E"],
     ]
-    for args in commands:
-        code = (
-            "import sys\nfrom sampledyn.cli import main\n"
-            f"assert main({args!r}) == 0\n"
-            "print('MPL', 'matplotlib' in sys.modules)\n"
-        )
-        res = subprocess.run(
-            [sys.executable, "-c", code], capture_output=True, text=True, timeout=300
-        )
-        assert res.returncode == 0, res.stderr
-        assert res.stdout.strip().splitlines()[-1] == "MPL False", args
+    code = (
+        "import sys\nfrom sampledyn.cli import main\n"
+        f"for args in {commands!r}:\n"
+        "    assert main(args) == 0\n"
+        "    print('MPL', args[0], 'matplotlib' in sys.modules, file=sys.stderr)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    seen = [line.split()[1:] for line in res.stderr.splitlines() if line.startswith("MPL ")]
+    assert seen == [[args[0], "False"] for args in commands]

@@ -30,7 +30,7 @@ pytestmark = pytest.mark.skipif(
 
 
 def _sweep(tmp_path, *extra):
-    cfg = write_grid(tmp_path / "grid.toml")
+    cfg = write_grid(tmp_path / "grid.toml", T=300.0)
     db = tmp_path / "r.db"
     return db, start("sweep", str(cfg), "--store", str(db), "--no-progress", *extra)
 
@@ -51,7 +51,9 @@ def test_workers_die_with_a_parent_killed_by_sigkill(tmp_path):
     # The killed run never finished; a rerun takes over its claims at once (its
     # process is gone) and completes the grid.
     assert query(db, "SELECT status FROM runs") == [("running",)]
-    rerun = start("sweep", str(tmp_path / "grid.toml"), "--store", str(db), "--no-progress")
+    rerun = start(
+        "sweep", str(tmp_path / "grid.toml"), "--store", str(db), "--no-progress", "--workers", "2"
+    )
     out, err = rerun.communicate(timeout=300)
     assert rerun.returncode == 0, err
     assert query(db, "SELECT COUNT(DISTINCT key), COUNT(*) FROM cells") == [
@@ -93,7 +95,7 @@ def test_sigterm_and_ctrl_c_interrupt_the_run_and_stop_the_workers(tmp_path, sig
 
 
 def test_two_concurrent_sweeps_split_the_grid_and_report_truthfully(tmp_path):
-    cfg = write_grid(tmp_path / "grid.toml", T=300.0)
+    cfg = write_grid(tmp_path / "grid.toml", T=600.0)  # long enough to overlap
     db = tmp_path / "shared.db"
     procs = [start("sweep", str(cfg), "--store", str(db), "--no-progress") for _ in range(2)]
     outs = [p.communicate(timeout=600) for p in procs]

@@ -223,10 +223,11 @@ def _claimed_chunks(
     retry_failed: bool,
     tally: _Tally,
     lease: float,
-    progress: Any,
+    progress: list[Any],
 ) -> Iterator[Chunk]:
     """Chunks of cells this run has claimed, claimed one chunk at a time as the
-    backend asks for the next (so concurrent runs interleave)."""
+    backend asks for the next (so concurrent runs interleave). Cells found stored or
+    claimed elsewhere advance the progress bar in ``progress``, once there is one."""
     batch: list[PlannedGroup] = []
 
     def claim() -> Chunk | None:
@@ -236,8 +237,8 @@ def _claimed_chunks(
         tally.store_s += time.perf_counter() - t0
         tally.skipped += got.done
         tally.elsewhere += got.elsewhere
-        if progress is not None and got.done + got.elsewhere:
-            progress.update(got.done + got.elsewhere)
+        if progress and got.done + got.elsewhere:
+            progress[0].update(got.done + got.elsewhere)
         mine = set(got.keys)
         groups = []
         for g in batch:
@@ -456,16 +457,12 @@ def _run(
         backend=backend, planned=study.n_cells, skipped=0, config=study.config.as_dict()
     )
     tally = _Tally()
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=study.n_cells, desc="sweep", unit="cell", smoothing=0.05)
+    bar: list[Any] = []  # the progress bar, once there is one
     claimed = _claimed_chunks(study, st, run_id, groups_per_chunk, retry_failed, tally, lease, bar)
-    results: Iterator[ChunkResult]
+    results: Iterator[ChunkResult] | None = None
     pool = None
+    heartbeat = None
     outcome = "failed"
-    heartbeat = _Heartbeat(st.path, run_id, lease / 6.0)
     try:
         first = next(claimed, None)
         if first is None:  # every cell stored or being computed by another run
@@ -478,24 +475,32 @@ def _run(
         if client is not None:
             results = dask_backend(client, study.setup, tasks, run_id, in_flight=2 * _n(client) + 2)
         elif workers is not None:
-            first = next(iter(study.trajectories.values()))["h"]
-            pool = start_pool(study.setup, workers, warm_up_h=first)
+            # Fork the workers before this process starts any thread (heartbeat, bar).
+            h = next(iter(study.trajectories.values()))["h"]
+            pool = start_pool(study.setup, workers, warm_up_h=h)
             results = local_processes(pool, study.setup, tasks, in_flight=2 * workers)
         else:
             results = in_process(study.setup, tasks)
+        heartbeat = _Heartbeat(st.path, run_id, lease / 6.0)
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar.append(tqdm(total=study.n_cells, desc="sweep", unit="cell", smoothing=0.05))
+            bar[0].update(tally.skipped + tally.elsewhere)
         for res in results:
             _store_result(res, study, st, run_id, tally)
-            if bar is not None:
-                bar.update(len(res.rows))
+            if bar:
+                bar[0].update(len(res.rows))
         outcome = "complete"
     except KeyboardInterrupt:
         outcome = "interrupted"
         raise
     finally:
-        heartbeat.stop()
-        if bar is not None:
-            bar.close()
-        close = getattr(locals().get("results"), "close", None)
+        if heartbeat is not None:
+            heartbeat.stop()
+        if bar:
+            bar[0].close()
+        close = getattr(results, "close", None)
         if close is not None:
             close()
         if pool is not None:
