@@ -26,6 +26,7 @@ __all__ = [
     "pair",
     "print_json",
     "progress",
+    "refuse",
     "writable_dir",
     "writable_file",
 ]

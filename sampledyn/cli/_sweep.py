@@ -81,7 +81,7 @@ def _cmd_results(args: argparse.Namespace) -> int:
         refuse("`--format parquet` needs `--out FILE`.")
     out = writable_file(args.out, "--out") if args.out else None
 
-    from ..results import load
+    from ..experiments.sweep import load_results as load
 
     with option("STORE"):
         df = load(args.store, args.table)

@@ -22,7 +22,7 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
@@ -153,17 +153,31 @@ def stop_pool(pool: ProcessPoolExecutor, *, terminate: bool) -> None:
 
 
 def local_processes(
-    pool: ProcessPoolExecutor, setup: Setup, tasks: Iterator[Chunk], *, in_flight: int
+    pool: ProcessPoolExecutor,
+    setup: Setup,
+    tasks: Iterator[Chunk],
+    *,
+    in_flight: int,
+    trajectories: Sequence[tuple[str, float]] = (),
 ) -> Iterator[ChunkResult]:
     """Run on a pool of local processes (:func:`start_pool`), at most ``in_flight``
     tasks pulled and not finished. Each trajectory is simulated by one worker when
-    its first task arrives; its tasks then go out with the samples."""
+    its first task arrives (its tasks then go out with the samples), and, if the
+    plan's ``trajectories`` (key, h) are given in task order, the next one is
+    simulated meanwhile, so no worker waits for exact samples between trajectories.
+    """
+    order = {key: i for i, (key, _) in enumerate(trajectories)}
     sims: dict[str, SimResult] = {}
     simulating: dict[Future[Any], str] = {}
     parked: dict[str, list[Chunk]] = {}
     running: dict[Future[Any], str] = {}
     exhausted = False
     last = ""
+
+    def simulate(key: str, h: float) -> None:
+        if key not in sims and key not in simulating.values():
+            simulating[pool.submit(simulate_trajectory, setup, key, h)] = key
+
     while True:
         while not exhausted and len(running) + sum(map(len, parked.values())) < in_flight:
             chunk = next(tasks, None)
@@ -174,10 +188,10 @@ def local_processes(
             if last in sims:
                 running[pool.submit(compute_chunk, setup, sims[last], chunk)] = last
                 continue
-            if last not in parked:
-                parked[last] = []
-                simulating[pool.submit(simulate_trajectory, setup, last, chunk.h)] = last
-            parked[last].append(chunk)
+            simulate(last, chunk.h)
+            parked.setdefault(last, []).append(chunk)
+            if last in order and order[last] + 1 < len(trajectories):
+                simulate(*trajectories[order[last] + 1])  # one trajectory ahead
         if not running and not simulating:
             return
         done, _ = wait([*running, *simulating], return_when=FIRST_COMPLETED)
@@ -185,14 +199,16 @@ def local_processes(
             if fut in simulating:
                 key = simulating.pop(fut)
                 sims[key] = fut.result()
-                for chunk in parked.pop(key):
+                for chunk in parked.pop(key, []):
                     running[pool.submit(compute_chunk, setup, sims[key], chunk)] = key
             else:
                 running.pop(fut)
                 yield fut.result()
-        # Keep the samples of the trajectory being pulled and of running tasks only.
+        # Keep the samples of running tasks, of the trajectory being pulled and of
+        # the one simulated ahead of it.
+        here = order.get(last, -1)
         busy = {last, *running.values()}
-        for key in [k for k in sims if k not in busy]:
+        for key in [k for k in sims if k not in busy and order.get(k, -1) <= here]:
             del sims[key]
 
 

@@ -478,7 +478,10 @@ def _run(
             # Fork the workers before this process starts any thread (heartbeat, bar).
             h = next(iter(study.trajectories.values()))["h"]
             pool = start_pool(study.setup, workers, warm_up_h=h)
-            results = local_processes(pool, study.setup, tasks, in_flight=2 * workers)
+            order = [(k, float(t["h"])) for k, t in study.trajectories.items()]
+            results = local_processes(
+                pool, study.setup, tasks, in_flight=2 * workers, trajectories=order
+            )
         else:
             results = in_process(study.setup, tasks)
         heartbeat = _Heartbeat(st.path, run_id, lease / 6.0)
