@@ -230,9 +230,10 @@ def _process_alive(pid: int) -> bool:
 
 
 def inspect_store(path: Path) -> str:
-    """ "missing", "empty" (0 bytes), "store" or "older" (schema 1); raise for anything
-    else. Reads the file's header and, only for a database without an application id,
-    its table names (immutable, so nothing is created or written)."""
+    """What is at ``path``: "missing", "empty" (0 bytes), "store" or "older" (a store
+    of schema 1, unmarked); anything else raises (``NotAStoreError``,
+    ``IsADirectoryError``). Reads the file's header and, only for a database without
+    an application id, its table names (immutable: nothing is created or written)."""
     if path.is_dir():
         raise IsADirectoryError(
             errno.EISDIR,
