@@ -10,9 +10,13 @@ compilation is not timed (the workers fork from this process and inherit it).
 
 Reported:
 * speed-up of 2 workers over 1 (target >= 1.7 on a machine with >= 2 free cores);
-* store overhead: the time the client spent writing the store, per cell, over the
-  compute time of a cell on its worker (target < 5 %); and the same for a bare write
-  of 1,000 rows in the batches the sweep uses.
+* store overhead: the time the client spent claiming cells and writing the store,
+  per cell, over the compute time of a cell on its worker (target < 5 %); and the same
+  for a bare write of 1,000 rows in the batches the sweep uses;
+* with ``--dask``: the same sweep on a Dask ``LocalCluster`` of 2 worker processes x 1
+  thread started by ``sampledyn.experiments.sweep.local_cluster`` (without the nanny's
+  ``MALLOC_TRIM_THRESHOLD_``), and, for comparison, on a plain ``LocalCluster`` with it,
+  as ratios to ``--workers 2`` (interleaved, best of ``--repeat``).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sampledyn.experiments.sweep import ResultStore, SweepSummary, run_sweep
+from sampledyn.experiments.sweep import ResultStore, SweepSummary, local_cluster, run_sweep
 
 CONFIG = """\
 vehicle = "auv_like"
@@ -66,6 +70,31 @@ def _timed(cfg: Path, folder: Path, repeat: int) -> dict[int, tuple[float, Sweep
     return best
 
 
+def _dask_ratios(cfg: Path, folder: Path, repeat: int) -> dict[str, float]:
+    """Best wall time of the sweep on two Dask clusters over ``--workers 2``."""
+    import dask
+    from distributed import LocalCluster
+
+    kw = {"host": "127.0.0.1", "dashboard_address": None}
+    plain_env = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 65536}
+    with (
+        local_cluster(2, **kw) as ours,
+        dask.config.set(plain_env),
+        LocalCluster(n_workers=2, threads_per_worker=1, **kw) as plain,
+    ):
+        best: dict[str, float] = {}
+        for i in range(repeat):
+            for name, where in (
+                ("workers", {"workers": 2}),
+                ("local_cluster", {"scheduler": ours.scheduler_address}),
+                ("plain LocalCluster", {"scheduler": plain.scheduler_address}),
+            ):
+                s = run_sweep(cfg, folder / f"d_{name}_{i}.db", **where)
+                print(f"  run {i + 1}, {name}: {s.wall_seconds:6.2f} s", flush=True)
+                best[name] = min(best.get(name, float("inf")), s.wall_seconds)
+    return {k: v / best["workers"] for k, v in best.items() if k != "workers"}
+
+
 def _bare_store_cost(folder: Path, cells_per_batch: int) -> float:
     """Seconds per cell to write 1,000 cells in batches of ``cells_per_batch``."""
     row = {
@@ -94,6 +123,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--T", type=float, default=600.0, help="duration of each run (s)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per worker count (best taken)")
+    ap.add_argument("--dask", action="store_true", help="also compare Dask LocalClusters")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -112,6 +142,7 @@ def main() -> int:
         overhead_run = max(s1.store_overhead, s2.store_overhead)
         per_write = _bare_store_cost(folder, cells_per_batch=5 * 2)
         overhead_bare = per_write / per_cell_compute
+        ratios = _dask_ratios(cfg, folder, args.repeat) if args.dask else {}
 
     print(f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     print(f"sweep: 1000 cells, T = {args.T:g} s, h in (0.005, 0.01, 0.02, 0.05) s")
@@ -133,6 +164,8 @@ def main() -> int:
         f"store overhead per cell, bare writes: {1e6 * per_write:.1f} us = "
         f"{100 * overhead_bare:.3f} % of a cell's compute"
     )
+    for name, ratio in ratios.items():
+        print(f"Dask {name} (2 x 1 thread) / --workers 2: {ratio:.2f}x  (target <= 1.15x)")
     ok = same and speedup >= 1.7 and overhead_run < 0.05
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1

@@ -1,57 +1,103 @@
 """sampledyn: sampled-data models of vehicle dynamics.
 
 One-step-ahead predictors (Euler, Tustin, Runge-Kutta, Adams-Bashforth) built from
-continuous-time vehicle models, run against exact sampled data, with local errors.
+continuous-time vehicle models, run against exact sampled data, with local errors;
+after the paper "On the Adequacy of Adams-Bashforth Sampled-Data Models for
+Characterizing Complex Underwater-Vehicle Dynamics with Noisy Measurements".
+
+The names below load on first use, so ``import sampledyn`` (and the ``sampledyn``
+command, which speaks before the numerical kernels load or compile) is instant.
 """
 
-from . import methods as methods
-from . import models as models
-from . import results as results
-from . import sensitivity as sensitivity
-from . import signals as signals
-from ._trajectory import Certificate as Certificate
-from ._trajectory import Trajectory as Trajectory
-from .errors import error_norm as error_norm
-from .errors import local_errors as local_errors
-from .estimate import EstimationResult as EstimationResult
-from .estimate import estimate as estimate
-from .estimate import estimate_and_predict as estimate_and_predict
-from .methods import AdamsBashforth as AdamsBashforth
-from .methods import Euler as Euler
-from .methods import RungeKutta as RungeKutta
-from .methods import Tustin as Tustin
-from .methods import available_methods as available_methods
-from .methods import get_method as get_method
-from .methods._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
-from .noise import add_noise as add_noise
-from .predict import predict as predict
-from .sensitivity import advise as advise
-from .simulate import simulate as simulate
+from __future__ import annotations
+
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "AdamsBashforth",
-    "add_noise",
-    "advise",
-    "Certificate",
-    "Euler",
-    "EstimatedAdamsBashforth",
-    "EstimationResult",
-    "RungeKutta",
-    "Trajectory",
-    "Tustin",
-    "available_methods",
-    "error_norm",
-    "estimate",
-    "estimate_and_predict",
-    "get_method",
-    "local_errors",
-    "methods",
-    "models",
-    "predict",
-    "sensitivity",
-    "results",
-    "signals",
-    "simulate",
-]
+# Public name -> module that defines it (None: the name is a subpackage or module).
+_EXPORTS: dict[str, str | None] = {
+    "AdamsBashforth": ".methods",
+    "Certificate": "._trajectory",
+    "EstimatedAdamsBashforth": ".methods._estimated",
+    "EstimationResult": ".estimate",
+    "Euler": ".methods",
+    "RungeKutta": ".methods",
+    "Trajectory": "._trajectory",
+    "Tustin": ".methods",
+    "add_noise": ".noise",
+    "advise": ".sensitivity",
+    "available_methods": ".methods",
+    "error_norm": ".errors",
+    "estimate": ".estimate",
+    "estimate_and_predict": ".estimate",
+    "get_method": ".methods",
+    "local_errors": ".errors",
+    "methods": None,
+    "models": None,
+    "predict": ".predict",
+    "results": None,
+    "sensitivity": None,
+    "signals": None,
+    "simulate": ".simulate",
+}
+
+__all__ = sorted(_EXPORTS)
+
+if TYPE_CHECKING:
+    from . import methods as methods
+    from . import models as models
+    from . import results as results
+    from . import sensitivity as sensitivity
+    from . import signals as signals
+    from ._trajectory import Certificate as Certificate
+    from ._trajectory import Trajectory as Trajectory
+    from .errors import error_norm as error_norm
+    from .errors import local_errors as local_errors
+    from .estimate import EstimationResult as EstimationResult
+    from .estimate import estimate as estimate
+    from .estimate import estimate_and_predict as estimate_and_predict
+    from .methods import AdamsBashforth as AdamsBashforth
+    from .methods import Euler as Euler
+    from .methods import RungeKutta as RungeKutta
+    from .methods import Tustin as Tustin
+    from .methods import available_methods as available_methods
+    from .methods import get_method as get_method
+    from .methods._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
+    from .noise import add_noise as add_noise
+    from .predict import predict as predict
+    from .sensitivity import advise as advise
+    from .simulate import simulate as simulate
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'sampledyn' has no attribute {name!r}")
+    source = _EXPORTS[name]
+    if source is None:
+        value: Any = importlib.import_module(f".{name}", __name__)
+    else:
+        value = getattr(importlib.import_module(source, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
+
+class _Facade(types.ModuleType):
+    """Keeps ``sampledyn.simulate``, ``.predict`` and ``.estimate`` the functions when
+    their modules are imported (the import system sets a package attribute per
+    submodule; the eager package overwrote them with the functions likewise)."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, types.ModuleType) and _EXPORTS.get(name) == f".{name}":
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Facade

@@ -2,7 +2,7 @@ import csv
 
 import pytest
 
-from sampledyn.cli import build_parser, main
+from sampledyn.cli import EXIT_BAD_VALUE, build_parser, main
 
 
 def test_help_lists_every_command(capsys):
@@ -44,5 +44,5 @@ def test_reproduce_fig3_small(tmp_path, capsys):
 def test_bad_argument_exits_with_message(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["reproduce", "fig2", "--h", "-1", "--no-progress", "--T", "1", "--after", "0.5"])
-    assert exc.value.code == 2
+    assert exc.value.code == EXIT_BAD_VALUE
     assert "`h`" in capsys.readouterr().err

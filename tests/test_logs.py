@@ -11,7 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sampledyn.cli import main
+import sampledyn as sd
+from sampledyn.cli import EXIT_BAD_VALUE, main
 from sampledyn.logs import LogFormatError, evaluate_log, read_log, synthetic_log
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
@@ -151,7 +152,7 @@ def test_malformed_logs_are_clear_errors_and_write_nothing(frame, tmp_path, caps
     out = tmp_path / "table.csv"
     with pytest.raises(SystemExit) as exc:
         main(["evaluate", "--data", str(log), "--vehicle", "bluerov2_heavy", "--out", str(out)])
-    assert exc.value.code == 2
+    assert exc.value.code == EXIT_BAD_VALUE
     err = capsys.readouterr().err
     assert err.startswith("sampledyn: error: log.csv: ")
     import re

@@ -11,7 +11,7 @@ import pytest
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import main
+from sampledyn.cli import EXIT_FILE, main
 from sampledyn.experiments.sweep import SweepConfigError, load_config, plan_study, run_sweep
 from sampledyn.experiments.sweep._compute import compute_chunk, simulate_trajectory
 
@@ -182,7 +182,7 @@ def test_cli_sweep_and_results_exports(tmp_path, capsys):
     assert "AB4" in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:
         main(["results", str(tmp_path / "none.db")])
-    assert exc.value.code == 2 and "none.db" in capsys.readouterr().err
+    assert exc.value.code == EXIT_FILE and "none.db" in capsys.readouterr().err
     assert not (tmp_path / "none.db").exists()
 
 

@@ -7,7 +7,7 @@ import pytest
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import main
+from sampledyn.cli import EXIT_UNAVAILABLE, main
 from sampledyn.experiments.sweep import run_sweep
 
 distributed = pytest.importorskip("distributed")
@@ -76,5 +76,5 @@ def test_scheduler_that_is_not_there_is_a_clear_error(tmp_path, capsys):
                 "--no-progress",
             ]
         )
-    assert exc.value.code == 2
+    assert exc.value.code == EXIT_UNAVAILABLE
     assert "tcp://127.0.0.1:9" in capsys.readouterr().err

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -23,6 +24,7 @@ from ..noise import add_noise
 from ..signals import fig6_thrusters
 from ..simulate import simulate
 from ._paper_fig7 import FIG7_NOISE_PAIRS
+from .sweep import worker_init
 
 __all__ = ["ROVStudy", "fig7_vehicle", "run_rov_study", "summarize"]
 
@@ -239,7 +241,12 @@ def run_rov_study(
     try:
         if parallel:
             ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            with ProcessPoolExecutor(
+                max_workers=workers,
+                mp_context=ctx,
+                initializer=worker_init,  # the workers die with this process
+                initargs=(os.getpid(),),
+            ) as pool:
                 cert_future = pool.submit(_certify_task)
                 for result in pool.map(_run_cells, tasks):
                     rows += result

@@ -1,12 +1,26 @@
 """Where the tasks of a sweep run: in this process, on local worker processes, or on
-a Dask distributed cluster. Each backend yields :class:`ChunkResult`s as they finish;
-the exact samples of a trajectory are computed once and handed to all its chunks.
+a Dask distributed cluster.
+
+Every backend takes an iterator of tasks (:class:`Chunk`) and pulls the next one only
+when it has room (a few per worker), so the caller can claim cells just before they
+are computed and a grid of any size streams through in bounded memory. Each backend
+yields :class:`ChunkResult`s as they finish; the exact samples of a trajectory are
+computed once, when its first task arrives, and handed to all its tasks.
+
+Local workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux,
+and a watchdog on the parent's pid everywhere), leave Ctrl-C to it, and are terminated
+at once when the sweep is interrupted.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
+import os
+import signal
 import sys
+import threading
+import time
 import warnings
 from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -16,22 +30,71 @@ from ...simulate import simulate
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
 from ._plan import Chunk, Setup
 
-__all__ = ["connect", "dask_backend", "in_process", "local_processes", "start_pool"]
+__all__ = [
+    "DASK_WORKER_ENVIRON",
+    "check_dask_workers",
+    "connect",
+    "dask_backend",
+    "in_process",
+    "local_cluster",
+    "local_processes",
+    "start_pool",
+    "stop_pool",
+    "worker_init",
+]
+
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+_WATCH_PERIOD = 0.5  # s between two looks at the parent's pid
+
+#: Environment a Dask nanny gives its workers that sampledyn removes: distributed sets
+#: ``MALLOC_TRIM_THRESHOLD_=65536`` (``distributed.nanny.pre-spawn-environ``), which
+#: makes glibc return memory to the system after every large free and multiplies the
+#: page faults of a sweep task by about 7 (measured: Dask 2.1x slower than local
+#: workers with it, 1.08x without). ``None`` removes the variable.
+DASK_WORKER_ENVIRON: dict[str, Any] = {"MALLOC_TRIM_THRESHOLD_": None}
 
 
-def _by_traj(chunks: Sequence[Chunk]) -> dict[str, list[Chunk]]:
-    out: dict[str, list[Chunk]] = {}
-    for c in chunks:
-        out.setdefault(c.traj_key, []).append(c)
-    return out
+# -- in this process ------------------------------------------------------------------
 
 
-def in_process(setup: Setup, chunks: Sequence[Chunk]) -> Iterator[ChunkResult]:
-    """Run every task here, one trajectory at a time."""
-    for traj_key, group in _by_traj(chunks).items():
-        sim = simulate_trajectory(setup, traj_key, group[0].h)
-        for chunk in group:
-            yield compute_chunk(setup, sim, chunk)
+def in_process(setup: Setup, tasks: Iterator[Chunk]) -> Iterator[ChunkResult]:
+    """Run every task here, in the order given."""
+    sim: SimResult | None = None
+    for chunk in tasks:
+        if sim is None or sim.traj_key != chunk.traj_key:
+            sim = None  # free the previous trajectory first
+            sim = simulate_trajectory(setup, chunk.traj_key, chunk.h)
+        yield compute_chunk(setup, sim, chunk)
+
+
+# -- local worker processes -----------------------------------------------------------
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(_WATCH_PERIOD)
+        if os.getppid() != parent:
+            os._exit(1)
+
+
+def worker_init(parent: int) -> None:
+    """Initializer of a local worker process (``parent`` = the pid that starts it).
+
+    The worker ignores SIGINT (a Ctrl-C reaches the whole process group; the parent
+    handles it and terminates the workers), takes SIGTERM's default action (a forked
+    worker would inherit a handler of the parent), and dies with the parent: on Linux
+    the kernel sends it SIGKILL when the parent exits (``prctl(PR_SET_PDEATHSIG)``),
+    and everywhere a thread exits the worker once its parent pid changes (the parent
+    died and the worker was re-parented).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before the line above
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 
 
 def _warm_up(setup: Setup, h: float) -> None:
@@ -46,54 +109,110 @@ def _warm_up(setup: Setup, h: float) -> None:
             pass  # a real failure is reported by the task that meets it
 
 
-def start_pool(setup: Setup, chunks: Sequence[Chunk], workers: int) -> ProcessPoolExecutor:
-    """A pool of ``workers`` processes, started (and warmed up) now.
+def start_pool(setup: Setup, workers: int, warm_up_h: float | None = None) -> ProcessPoolExecutor:
+    """A pool of ``workers`` processes, started now (see :func:`worker_init`).
 
-    On Linux the workers fork from this process after :func:`_warm_up`; elsewhere they
-    are spawned (fork is unsafe on macOS) and compile on their own.
+    On Linux the workers fork from this process after compiling the kernels once (at
+    period ``warm_up_h``); elsewhere they are spawned (fork is unsafe on macOS) and
+    compile on their own.
     """
     if workers < 1:
         raise ValueError(f"`workers` must be >= 1, got {workers}.")
     if sys.platform.startswith("linux"):
-        if chunks:
-            _warm_up(setup, chunks[0].h)
+        if warm_up_h is not None:
+            _warm_up(setup, warm_up_h)
         ctx = multiprocessing.get_context("fork")
     else:  # pragma: no cover - platform dependent
         ctx = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+    pool = ProcessPoolExecutor(
+        max_workers=workers, mp_context=ctx, initializer=worker_init, initargs=(os.getpid(),)
+    )
     # Start every worker now, before the caller starts threads (e.g. a progress bar).
-    for fut in [pool.submit(_noop) for _ in range(workers)]:
+    for fut in [pool.submit(os.getpid) for _ in range(workers)]:
         fut.result()
     return pool
 
 
-def _noop() -> None:
-    return None
+def stop_pool(pool: ProcessPoolExecutor, *, terminate: bool) -> None:
+    """Shut ``pool`` down: after its running tasks, or, with ``terminate``, at once
+    (SIGTERM to every worker, SIGKILL to any still there after 5 s)."""
+    if not terminate:
+        pool.shutdown(wait=True, cancel_futures=True)
+        return
+    # Python 3.14 has ``pool.terminate_workers()``; before, the pool's process table.
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    for p in procs:
+        p.join(5.0)
+        if p.is_alive():
+            p.kill()
+            p.join(5.0)
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def local_processes(
-    pool: ProcessPoolExecutor, setup: Setup, chunks: Sequence[Chunk]
+    pool: ProcessPoolExecutor,
+    setup: Setup,
+    tasks: Iterator[Chunk],
+    *,
+    in_flight: int,
+    trajectories: Sequence[tuple[str, float]] = (),
 ) -> Iterator[ChunkResult]:
-    """Run on a pool of local processes (:func:`start_pool`): each trajectory is
-    simulated by one worker, then its chunks are sent out with the samples. The pool
-    is shut down at the end."""
-    by_traj = _by_traj(chunks)
-    pending: dict[Future[Any], str] = {}
-    try:
-        for traj_key, group in by_traj.items():
-            pending[pool.submit(simulate_trajectory, setup, traj_key, group[0].h)] = "sim"
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                kind = pending.pop(fut)
-                if kind == "sim":
-                    sim: SimResult = fut.result()
-                    for chunk in by_traj[sim.traj_key]:
-                        pending[pool.submit(compute_chunk, setup, sim, chunk)] = "chunk"
-                else:
-                    yield fut.result()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    """Run on a pool of local processes (:func:`start_pool`), at most ``in_flight``
+    tasks pulled and not finished. Each trajectory is simulated by one worker when
+    its first task arrives (its tasks then go out with the samples), and, if the
+    plan's ``trajectories`` (key, h) are given in task order, the next one is
+    simulated meanwhile, so no worker waits for exact samples between trajectories.
+    """
+    order = {key: i for i, (key, _) in enumerate(trajectories)}
+    sims: dict[str, SimResult] = {}
+    simulating: dict[Future[Any], str] = {}
+    parked: dict[str, list[Chunk]] = {}
+    running: dict[Future[Any], str] = {}
+    exhausted = False
+    last = ""
+
+    def simulate(key: str, h: float) -> None:
+        if key not in sims and key not in simulating.values():
+            simulating[pool.submit(simulate_trajectory, setup, key, h)] = key
+
+    while True:
+        while not exhausted and len(running) + sum(map(len, parked.values())) < in_flight:
+            chunk = next(tasks, None)
+            if chunk is None:
+                exhausted = True
+                break
+            last = chunk.traj_key
+            if last in sims:
+                running[pool.submit(compute_chunk, setup, sims[last], chunk)] = last
+                continue
+            simulate(last, chunk.h)
+            parked.setdefault(last, []).append(chunk)
+            if last in order and order[last] + 1 < len(trajectories):
+                simulate(*trajectories[order[last] + 1])  # one trajectory ahead
+        if not running and not simulating:
+            return
+        done, _ = wait([*running, *simulating], return_when=FIRST_COMPLETED)
+        for fut in done:
+            if fut in simulating:
+                key = simulating.pop(fut)
+                sims[key] = fut.result()
+                for chunk in parked.pop(key, []):
+                    running[pool.submit(compute_chunk, setup, sims[key], chunk)] = key
+            else:
+                running.pop(fut)
+                yield fut.result()
+        # Keep the samples of running tasks, of the trajectory being pulled and of
+        # the one simulated ahead of it.
+        here = order.get(last, -1)
+        busy = {last, *running.values()}
+        for key in [k for k in sims if k not in busy and order.get(k, -1) <= here]:
+            del sims[key]
+
+
+# -- Dask -----------------------------------------------------------------------------
 
 
 def connect(address: str, timeout: float = 30.0) -> Any:
@@ -102,8 +221,9 @@ def connect(address: str, timeout: float = 30.0) -> Any:
     Raises
     ------
     ValueError
-        naming the address, if Dask is missing or the scheduler does not answer
-        within ``timeout`` seconds.
+        if Dask distributed is not installed.
+    ConnectionError
+        naming the address, if the scheduler does not answer within ``timeout`` s.
     """
     try:
         from distributed import Client
@@ -114,49 +234,119 @@ def connect(address: str, timeout: float = 30.0) -> Any:
     try:
         return Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:
-        raise ValueError(f"`scheduler` {address!r}: cannot connect ({exc}).") from exc
+        raise ConnectionError(
+            f"`scheduler` {address!r}: no Dask scheduler answered within {timeout:g} s ({exc}); "
+            "start one with `dask scheduler` or check the address."
+        ) from exc
+
+
+def _worker_environ(names: tuple[str, ...]) -> dict[str, str | None]:
+    return {n: os.environ.get(n) for n in names}
+
+
+def check_dask_workers(client: Any) -> list[str]:
+    """Warn (and return the messages) if the cluster's workers run with an environment
+    that :data:`DASK_WORKER_ENVIRON` removes, with the way to start them without it."""
+    names = tuple(DASK_WORKER_ENVIRON)
+    found = client.run(_worker_environ, names)
+    msgs = []
+    for name in names:
+        bad = sorted(w for w, env in found.items() if env.get(name) is not None)
+        if bad:
+            value = found[bad[0]][name]
+            msgs.append(
+                f"{len(bad)} of {len(found)} Dask workers run with {name}={value} (set by the "
+                "Dask nanny), which makes sampledyn's tasks about 2x slower; start them with "
+                "`dask worker --no-nanny ...`, or with a Dask config file that sets "
+                f"distributed.nanny.pre-spawn-environ.{name}: null (see docs/sweeps.md)."
+            )
+    for msg in msgs:
+        warnings.warn(msg, RuntimeWarning, stacklevel=2)
+    return msgs
+
+
+def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kwargs: Any) -> Any:
+    """A ``distributed.LocalCluster`` of worker processes started without the
+    variables of :data:`DASK_WORKER_ENVIRON`, whether Dask's nanny or this process's
+    environment would give them; they are removed from this process's environment
+    too (other keyword arguments are passed on).
+
+    Use it as ``with local_cluster(2) as cluster:`` and pass
+    ``scheduler=cluster.scheduler_address`` to :func:`run_sweep`.
+    """
+    import dask
+    from distributed import LocalCluster
+
+    config = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in DASK_WORKER_ENVIRON.items()}
+    # A nanny also sets its variables in the process that runs it (here), and the
+    # workers inherit this process's environment. glibc read them when this process
+    # started, so they act only on processes started later: remove them for good.
+    for name in DASK_WORKER_ENVIRON:
+        os.environ.pop(name, None)
+    with dask.config.set(config):
+        return LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=threads_per_worker,
+            processes=True,
+            **kwargs,
+        )
 
 
 def dask_backend(
-    client: Any, setup: Setup, chunks: Sequence[Chunk], run_id: str
+    client: Any, setup: Setup, tasks: Iterator[Chunk], run_id: str, *, in_flight: int
 ) -> Iterator[ChunkResult]:
     """Run on a Dask distributed cluster (``client`` from :func:`connect`, closed at
-    the end).
+    the end), at most ``in_flight`` tasks submitted and not finished.
 
-    The exact samples stay on the cluster: a chunk task depends on its trajectory's
-    future, so Dask moves the samples between workers and the client receives rows
-    only.
+    The exact samples stay on the cluster: a task depends on its trajectory's future,
+    so Dask moves the samples between workers and the client receives rows only.
     """
     from distributed import as_completed
 
-    futures: list[Any] = []
+    futures: set[Any] = set()
+    sims: dict[str, Any] = {}
     try:
         [setup_f] = client.scatter([setup], broadcast=True, hash=False)
-        sims = {}
-        for traj_key, group in _by_traj(chunks).items():
-            sims[traj_key] = client.submit(
-                simulate_trajectory,
-                setup_f,
-                traj_key,
-                group[0].h,
-                key=f"sampledyn-sim-{run_id}-{traj_key[:16]}",
-                pure=False,
-            )
-        for i, chunk in enumerate(chunks):
-            futures.append(
-                client.submit(
+        queue = as_completed([], loop=client.loop)
+        exhausted = False
+        n = 0
+        while True:
+            while not exhausted and len(futures) < in_flight:
+                chunk = next(tasks, None)
+                if chunk is None:
+                    exhausted = True
+                    break
+                if chunk.traj_key not in sims:
+                    # Tasks come trajectory by trajectory: the cluster keeps the samples
+                    # of earlier ones while their tasks run, not longer.
+                    sims = {
+                        chunk.traj_key: client.submit(
+                            simulate_trajectory,
+                            setup_f,
+                            chunk.traj_key,
+                            chunk.h,
+                            key=f"sampledyn-sim-{run_id}-{chunk.traj_key[:16]}",
+                            pure=False,
+                        )
+                    }
+                fut = client.submit(
                     compute_chunk,
                     setup_f,
                     sims[chunk.traj_key],
                     chunk,
-                    key=f"sampledyn-cells-{run_id}-{i}",
+                    key=f"sampledyn-cells-{run_id}-{n}",
                     pure=False,
                 )
-            )
-        for fut in as_completed(futures, loop=client.loop):
+                n += 1
+                futures.add(fut)
+                queue.add(fut)
+            if not futures:
+                return
+            fut = next(queue)
+            futures.discard(fut)
             result = fut.result()
             fut.release()
             yield result
     finally:
-        client.cancel(futures)
+        client.cancel(list(futures) + list(sims.values()))
         client.close()

@@ -19,6 +19,12 @@ the values to cross::
     base_seed = 0                # optional
     distribution = "uniform"     # optional, or "gaussian"
     x0 = [1.0, 0.0]              # optional initial state (default: the model's)
+    max_cells = 1000000          # optional: refuse a bigger grid (default 1,000,000)
+
+Nothing is enumerated here: a count of seeds stays a ``range`` and crossed
+``eta_pct``/``v_pct`` lists stay a :class:`NoiseGrid`, so a grid of any size is read
+in constant memory and its cells are counted by arithmetic
+(:attr:`sampledyn.experiments.sweep.Study.n_cells`).
 """
 
 from __future__ import annotations
@@ -26,7 +32,7 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,7 +40,10 @@ from typing import Any
 from ...errors import ERROR_NORMS
 from ...methods import get_method
 
-__all__ = ["SweepConfig", "SweepConfigError", "load_config"]
+__all__ = ["DEFAULT_MAX_CELLS", "NoiseGrid", "SweepConfig", "SweepConfigError", "load_config"]
+
+#: Largest grid a sweep runs unless told otherwise (``max_cells``, ``--max-cells``).
+DEFAULT_MAX_CELLS = 1_000_000
 
 _DISTRIBUTIONS = ("uniform", "gaussian")
 _KEYS = (
@@ -54,7 +63,41 @@ _KEYS = (
     "base_seed",
     "distribution",
     "x0",
+    "max_cells",
 )
+
+
+@dataclass(frozen=True)
+class NoiseGrid(Sequence[tuple[float, float]]):
+    """The noise pairs ``eta_pct`` x ``v_pct`` (eta-major), without listing them.
+
+    A sequence of (eta %, v %) pairs of length ``len(eta) * len(v)``.
+    """
+
+    eta: tuple[float, ...]
+    v: tuple[float, ...]
+
+    def __len__(self) -> int:
+        return len(self.eta) * len(self.v)
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return tuple(self[i] for i in range(*index.indices(len(self))))
+        i = index + len(self) if index < 0 else index
+        if not 0 <= i < len(self):
+            raise IndexError("noise pair index out of range")
+        return (self.eta[i // len(self.v)], self.v[i % len(self.v)])
+
+    def __iter__(self) -> Iterator[tuple[float, float]]:
+        return ((e, w) for e in self.eta for w in self.v)
+
+    def __contains__(self, pair: object) -> bool:
+        return (
+            isinstance(pair, tuple) and len(pair) == 2 and pair[0] in self.eta and pair[1] in self.v
+        )
+
+    def count(self, pair: Any) -> int:
+        return int(pair in self)
 
 
 class SweepConfigError(ValueError):
@@ -81,11 +124,11 @@ class SweepConfig:
         Sampling periods (s).
     methods : tuple of str
         Registry names (:func:`sampledyn.get_method`).
-    noise : tuple of (eta %, v %)
-        Noise pairs.
-    seeds : tuple of int
-        Noise seeds; the noise-free pair (0, 0) runs with the first seed only, since
-        its result does not depend on the seed.
+    noise : sequence of (eta %, v %)
+        Noise pairs (a tuple, or a :class:`NoiseGrid` for crossed lists).
+    seeds : sequence of int
+        Noise seeds (a tuple, or a ``range`` for a count); the noise-free pair (0, 0)
+        runs with the first seed only, since its result does not depend on the seed.
     norms : tuple of str
         Error norms, one cell each.
     base_seed : int
@@ -96,6 +139,8 @@ class SweepConfig:
         Net buoyancy of a vehicle in percent of its weight; None keeps the file's.
     x0 : tuple of float or None
         Initial state of the exact samples; None uses the model's default.
+    max_cells : int or None
+        Largest grid to run (None: :data:`DEFAULT_MAX_CELLS`).
     source : str
         Where the config came from (file path or "<dict>").
     """
@@ -106,13 +151,14 @@ class SweepConfig:
     after: float
     h: tuple[float, ...]
     methods: tuple[str, ...]
-    noise: tuple[tuple[float, float], ...]
-    seeds: tuple[int, ...]
+    noise: Sequence[tuple[float, float]]
+    seeds: Sequence[int]
     norms: tuple[str, ...]
     base_seed: int = 0
     distribution: str = "uniform"
     buoyancy_pct: float | None = None
     x0: tuple[float, ...] | None = None
+    max_cells: int | None = None
     source: str = field(default="<dict>", compare=False)
 
     def as_dict(self) -> dict[str, Any]:
@@ -124,13 +170,22 @@ class SweepConfig:
             "after": self.after,
             "h": list(self.h),
             "methods": list(self.methods),
-            "noise": [list(p) for p in self.noise],
-            "seeds": list(self.seeds),
+            "noise": (
+                {"eta_pct": list(self.noise.eta), "v_pct": list(self.noise.v)}
+                if isinstance(self.noise, NoiseGrid)
+                else [list(p) for p in self.noise]
+            ),
+            "seeds": (
+                len(self.seeds)
+                if isinstance(self.seeds, range) and self.seeds.start == 0
+                else list(self.seeds)
+            ),
             "norms": list(self.norms),
             "base_seed": self.base_seed,
             "distribution": self.distribution,
             "buoyancy_pct": self.buoyancy_pct,
             "x0": None if self.x0 is None else list(self.x0),
+            "max_cells": self.max_cells,
         }
 
     @classmethod
@@ -250,7 +305,7 @@ def _methods(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(names))
 
 
-def _noise(data: Mapping[str, Any], src: str) -> tuple[tuple[float, float], ...]:
+def _noise(data: Mapping[str, Any], src: str) -> Sequence[tuple[float, float]]:
     if "noise" in data:
         if "eta_pct" in data or "v_pct" in data:
             raise SweepConfigError(
@@ -266,21 +321,21 @@ def _noise(data: Mapping[str, Any], src: str) -> tuple[tuple[float, float], ...]
             (_percentages("noise", [p[0]], src)[0], _percentages("noise", [p[1]], src)[0])
             for p in raw
         ]
-    else:
-        eta = _percentages("eta_pct", data.get("eta_pct", [0.0]), src)
-        v = _percentages("v_pct", data.get("v_pct", [0.0]), src)
-        pairs = [(e, w) for e in eta for w in v]
-    if len(set(pairs)) != len(pairs):
-        raise SweepConfigError("noise", f"`noise`{_where(src)} lists a pair twice.")
-    return tuple(pairs)
+        if len(set(pairs)) != len(pairs):
+            raise SweepConfigError("noise", f"`noise`{_where(src)} lists a pair twice.")
+        return tuple(pairs)
+    # Distinct lists (checked) give distinct pairs; the product is never listed.
+    eta = _percentages("eta_pct", data.get("eta_pct", [0.0]), src)
+    v = _percentages("v_pct", data.get("v_pct", [0.0]), src)
+    return NoiseGrid(eta, v)
 
 
-def _seeds(data: Mapping[str, Any], src: str) -> tuple[int, ...]:
+def _seeds(data: Mapping[str, Any], src: str) -> Sequence[int]:
     raw = data.get("seeds", 1)
     if isinstance(raw, int) and not isinstance(raw, bool):
         if raw < 1:
             raise SweepConfigError("seeds", f"`seeds`{_where(src)} must be >= 1, got {raw}.")
-        return tuple(range(raw))
+        return range(raw)
     if (
         isinstance(raw, list)
         and raw
@@ -333,6 +388,13 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
             f"`distribution`{_where(src)} must be one of {', '.join(_DISTRIBUTIONS)}, "
             f"got {distribution!r}.",
         )
+    max_cells = data.get("max_cells")
+    if max_cells is not None and (
+        not isinstance(max_cells, int) or isinstance(max_cells, bool) or max_cells < 1
+    ):
+        raise SweepConfigError(
+            "max_cells", f"`max_cells`{_where(src)} must be an int >= 1, got {max_cells!r}."
+        )
     buoy = data.get("buoyancy_pct")
     x0 = data.get("x0")
     if x0 is not None and not isinstance(x0, list):
@@ -351,5 +413,6 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
         distribution=distribution,
         buoyancy_pct=None if buoy is None else _number("buoyancy_pct", buoy, src),
         x0=None if x0 is None else tuple(_number("x0", v, src) for v in x0),
+        max_cells=max_cells,
         source=src,
     )

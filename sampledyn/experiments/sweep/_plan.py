@@ -9,6 +9,11 @@ Cells that share exact samples (same vehicle, input, T, h) form one trajectory; 
 that share measured data (same noise pair and seed) form one group, whose f values
 are computed once for every Adams-Bashforth order. A task is a chunk of groups of
 one trajectory.
+
+Planning is lazy: :func:`plan_study` builds the model and the input and checks them,
+but lists no cell. :attr:`Study.n_cells` counts the grid by arithmetic, and
+:meth:`Study.iter_groups` yields its groups one at a time, so a grid of any size is
+counted at once and streamed in the memory of one group.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,7 +31,16 @@ import numpy as np
 from ._config import SweepConfig
 from ._inputs import build_model, make_input
 
-__all__ = ["Cell", "Chunk", "Group", "Setup", "Study", "cell_order", "plan_study"]
+__all__ = [
+    "Cell",
+    "Chunk",
+    "Group",
+    "PlannedGroup",
+    "Setup",
+    "Study",
+    "cell_order",
+    "plan_study",
+]
 
 SCHEMA = 1  # bump when the meaning of a stored number changes
 
@@ -107,6 +122,25 @@ class Group:
 
 
 @dataclass(frozen=True)
+class PlannedGroup:
+    """The cells of one (trajectory, noise pair, seed), as planned (client side)."""
+
+    traj_key: str
+    h: float
+    eta_pct: float
+    v_pct: float
+    seed: int
+    cells: tuple[Cell, ...]
+
+    def task_group(self, keys: set[str] | None = None) -> Group:
+        """The :class:`Group` a worker computes: every cell, or those of ``keys``."""
+        cells = tuple(
+            (c.key, c.method, c.norm) for c in self.cells if keys is None or c.key in keys
+        )
+        return Group(self.eta_pct, self.v_pct, self.seed, cells)
+
+
+@dataclass(frozen=True)
 class Chunk:
     """One task: some groups of one trajectory."""
 
@@ -132,19 +166,85 @@ class Setup:
     x0: tuple[float, ...] | None = None
 
 
+def _seeds_of(config: SweepConfig, eta: float, v: float) -> Sequence[int]:
+    # The noise-free pair does not depend on the seed: it runs once.
+    return config.seeds[:1] if eta == 0 and v == 0 else config.seeds
+
+
 @dataclass(frozen=True)
 class Study:
-    """A planned sweep: the model and input built once, every cell with its key."""
+    """A planned sweep: the model and input built once; cells listed on demand."""
 
     config: SweepConfig
     setup: Setup
-    cells: tuple[Cell, ...]
     trajectories: dict[str, dict[str, Any]]  # traj_key -> its configuration
     model_fingerprint: str
     input_fingerprint: str
     version: str
 
-    def chunks(self, cells: list[Cell] | tuple[Cell, ...], groups_per_chunk: int) -> list[Chunk]:
+    @property
+    def groups_per_trajectory(self) -> int:
+        """(noise pair, seed) groups of one trajectory, counted without listing them."""
+        cfg = self.config
+        zero = cfg.noise.count((0.0, 0.0))
+        return zero * min(1, len(cfg.seeds)) + (len(cfg.noise) - zero) * len(cfg.seeds)
+
+    @property
+    def n_groups(self) -> int:
+        return len(self.trajectories) * self.groups_per_trajectory
+
+    @property
+    def n_cells(self) -> int:
+        """Cells in the grid, by arithmetic (instant for any size)."""
+        return self.n_groups * len(self.config.methods) * len(self.config.norms)
+
+    def size_text(self) -> str:
+        """The factors of :attr:`n_cells`, for messages."""
+        cfg = self.config
+        return (
+            f"{len(cfg.h)} h x {len(cfg.noise)} noise pairs x {len(cfg.seeds)} seeds (1 for "
+            f"the noise-free pair) x {len(cfg.methods)} methods x {len(cfg.norms)} norms"
+        )
+
+    def iter_groups(self) -> Iterator[PlannedGroup]:
+        """Every group with its cells and their keys, trajectory by trajectory; one
+        group in memory at a time."""
+        cfg = self.config
+        for traj_key, tconf in self.trajectories.items():
+            h = float(tconf["h"])
+            for eta, v in cfg.noise:
+                for seed in _seeds_of(cfg, eta, v):
+                    cells = []
+                    for method in cfg.methods:
+                        for norm in cfg.norms:
+                            cconf = {
+                                **tconf,
+                                "after": cfg.after,
+                                "eta_pct": eta,
+                                "v_pct": v,
+                                "seed": seed,
+                                "base_seed": cfg.base_seed,
+                                "distribution": cfg.distribution,
+                                "method": method,
+                                "norm": norm,
+                            }
+                            text = _canonical(cconf)
+                            key = hashlib.sha256(text.encode()).hexdigest()
+                            cells.append(Cell(key, traj_key, h, eta, v, seed, method, norm, text))
+                    yield PlannedGroup(traj_key, h, eta, v, seed, tuple(cells))
+
+    def iter_cells(self) -> Iterator[Cell]:
+        """Every cell, lazily (see :meth:`iter_groups`)."""
+        for group in self.iter_groups():
+            yield from group.cells
+
+    @property
+    def cells(self) -> tuple[Cell, ...]:
+        """Every cell as a tuple. Lists the whole grid: for small grids and tests; use
+        :meth:`iter_groups` or :attr:`n_cells` otherwise."""
+        return tuple(self.iter_cells())
+
+    def chunks(self, cells: Sequence[Cell], groups_per_chunk: int) -> list[Chunk]:
         """Tasks for ``cells``: grouped by trajectory, then by (noise pair, seed)."""
         if groups_per_chunk < 1:
             raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
@@ -166,7 +266,8 @@ class Study:
 
 
 def plan_study(config: SweepConfig) -> Study:
-    """Build the model and input and list every cell of ``config`` with its key.
+    """Build the model and input, check them against the grid, and key the
+    trajectories; the cells are listed lazily (:meth:`Study.iter_groups`).
 
     Raises
     ------
@@ -205,32 +306,8 @@ def plan_study(config: SweepConfig) -> Study:
         "T": config.T,
         "x0": None if config.x0 is None else list(config.x0),
     }
-    trajectories: dict[str, dict[str, Any]] = {}
-    cells: list[Cell] = []
-    for h in config.h:
-        tconf = {**common, "h": h}
-        traj_key = digest(tconf)
-        trajectories[traj_key] = tconf
-        for eta, v in config.noise:
-            seeds = config.seeds[:1] if eta == 0 and v == 0 else config.seeds
-            for seed in seeds:
-                for method in config.methods:
-                    for norm in config.norms:
-                        cconf = {
-                            **tconf,
-                            "after": config.after,
-                            "eta_pct": eta,
-                            "v_pct": v,
-                            "seed": seed,
-                            "base_seed": config.base_seed,
-                            "distribution": config.distribution,
-                            "method": method,
-                            "norm": norm,
-                        }
-                        text = _canonical(cconf)
-                        key = hashlib.sha256(text.encode()).hexdigest()
-                        cells.append(Cell(key, traj_key, h, eta, v, seed, method, norm, text))
+    trajectories = {digest(t): t for t in ({**common, "h": h} for h in config.h)}
     setup = Setup(
         model, signal, config.T, config.after, config.base_seed, config.distribution, config.x0
     )
-    return Study(config, setup, tuple(cells), trajectories, mfp, ifp, __version__)
+    return Study(config, setup, trajectories, mfp, ifp, __version__)

@@ -1,22 +1,51 @@
-"""Run a sweep: plan the cells, skip the stored ones, compute the rest, store them."""
+"""Run a sweep: plan the cells, claim the ones no run has stored or is computing,
+compute them, store them.
+
+The steps, in the order they happen:
+
+1. read and check the grid; plan it lazily (:func:`plan_study`) and refuse a grid above
+   ``max_cells`` with its size, before anything is opened or written;
+2. a dry run only reads an existing store (read-only) to count what is stored;
+3. connect to the backend (Dask scheduler, local workers); only then open the store,
+   creating it if needed (a run that fails before this leaves no file behind);
+4. stream the groups of cells, claim a chunk of them in the store just before it is
+   computed (so concurrent runs on one store split the work), compute, write;
+5. mark the run "complete", "interrupted" (KeyboardInterrupt, which the command line
+   also raises for SIGTERM) or "failed", with truthful counts, and release its claims.
+"""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
+import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
-from ._backends import connect, dask_backend, in_process, local_processes, start_pool
+from ._backends import (
+    check_dask_workers,
+    connect,
+    dask_backend,
+    in_process,
+    local_processes,
+    start_pool,
+    stop_pool,
+)
 from ._compute import ChunkResult
-from ._config import SweepConfig, load_config
-from ._plan import Cell, Study, cell_order, plan_study, vehicle_label
-from ._store import ResultStore
+from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
+from ._plan import Cell, Chunk, PlannedGroup, Study, cell_order, plan_study, vehicle_label
+from ._store import ResultStore, inspect_store
 
-__all__ = ["SweepSummary", "run_sweep"]
+__all__ = ["LEASE_SECONDS", "SweepSummary", "check_grid_size", "run_sweep"]
+
+#: A run whose heartbeat is older than this (s) is taken for dead and its claims are
+#: taken over; a run refreshes its heartbeat every LEASE_SECONDS / 6.
+LEASE_SECONDS = 60.0
 
 
 @dataclass(frozen=True)
@@ -26,11 +55,11 @@ class SweepSummary:
     Attributes
     ----------
     run_id : str
-        Id of the run in the store ("" for a dry run).
+        Id of the run in the store ("" for a dry run or when there was nothing to do).
     planned : int
         Cells in the grid.
     skipped : int
-        Cells already in the store (not recomputed).
+        Cells found stored (not recomputed).
     computed : int
         Cells computed and stored by this run.
     failed : int
@@ -40,12 +69,19 @@ class SweepSummary:
     wall_seconds : float
         Duration of the run.
     store_seconds : float
-        Time the client spent writing the store.
+        Time the client spent claiming cells and writing the store.
     compute_seconds : float
         Sum over the computed cells of their compute time on the workers (the
         simulation of the exact samples excluded).
     simulate_seconds : float
         Sum over the trajectories of their simulation time.
+    elsewhere : int
+        Cells another live run had claimed (it computes them; not done by this run).
+    duplicates : int
+        Cells this run computed that another run had stored first (their rows were
+        kept, this run's discarded); 0 unless a live run was taken for dead.
+    status : str
+        "complete", "interrupted", "failed", "dry-run" or "nothing to do".
     """
 
     run_id: str
@@ -58,11 +94,28 @@ class SweepSummary:
     store_seconds: float
     compute_seconds: float
     simulate_seconds: float
+    elsewhere: int = 0
+    duplicates: int = 0
+    status: str = "complete"
 
     @property
     def store_overhead(self) -> float:
         """Store time per cell over compute time per cell."""
         return self.store_seconds / self.compute_seconds if self.compute_seconds else math.nan
+
+
+@dataclass
+class _Tally:
+    skipped: int = 0
+    elsewhere: int = 0
+    computed: int = 0
+    failed: int = 0
+    duplicates: int = 0
+    store_s: float = 0.0
+    compute_s: float = 0.0
+    sim_s: float = 0.0
+    pending: dict[str, Cell] = field(default_factory=dict)  # claimed, not yet written
+    seen_traj: set[str] = field(default_factory=set)
 
 
 def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> dict[str, Any]:
@@ -111,11 +164,138 @@ def _traj_row(study: Study, res: ChunkResult, run_id: str) -> dict[str, Any]:
     }
 
 
-def _groups_per_chunk(n_groups: int, n_traj: int, workers: int) -> int:
+def _groups_per_chunk(groups_per_traj: int, workers: int) -> int:
     # About 4 tasks per worker and trajectory: enough to balance the load, few enough
     # that shipping the samples with each task stays cheap.
-    per_traj = max(1, n_groups // max(1, n_traj))
-    return max(1, min(32, math.ceil(per_traj / (4 * workers))))
+    return max(1, min(32, math.ceil(groups_per_traj / (4 * workers))))
+
+
+def check_grid_size(study: Study, max_cells: int | None = None) -> None:
+    """Refuse a grid of more than ``max_cells`` cells (default: the config's
+    ``max_cells``, else :data:`DEFAULT_MAX_CELLS`), naming its size and the limit.
+
+    Raises
+    ------
+    SweepConfigError
+        (key "max_cells") if the grid is too large.
+    """
+    limit = max_cells if max_cells is not None else study.config.max_cells
+    limit = DEFAULT_MAX_CELLS if limit is None else limit
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise ValueError(f"`max_cells` must be an int >= 1, got {limit!r}.")
+    n = study.n_cells
+    if n > limit:
+        raise SweepConfigError(
+            "max_cells",
+            f"the grid of {study.config.source} has {n:,} cells ({study.size_text()}), above "
+            f"the limit of {limit:,} cells; shrink the grid, or raise the limit with "
+            "`max_cells` in the sweep file or --max-cells.",
+        )
+
+
+def _count_stored(study: Study, path: Path, retry_failed: bool) -> int:
+    """Cells of ``study`` stored at ``path`` (read-only; 0 if there is no store)."""
+    if not path.exists() or path.stat().st_size == 0:
+        return 0
+    with ResultStore(path, readonly=True, no_side_files=True) as st:
+        if st.count("cells") == 0:
+            return 0
+        found = 0
+        batch: list[str] = []
+        groups = study.iter_groups()
+        while True:
+            group = next(groups, None)
+            if group is not None:
+                batch.extend(c.key for c in group.cells)
+            if batch and (group is None or len(batch) >= 5000):
+                status = st.statuses(batch)
+                found += sum(1 for s in status.values() if s == "ok" or not retry_failed)
+                batch = []
+            if group is None:
+                return found
+
+
+def _claimed_chunks(
+    study: Study,
+    st: ResultStore,
+    run_id: str,
+    groups_per_chunk: int,
+    retry_failed: bool,
+    tally: _Tally,
+    lease: float,
+    progress: list[Any],
+) -> Iterator[Chunk]:
+    """Chunks of cells this run has claimed, claimed one chunk at a time as the
+    backend asks for the next (so concurrent runs interleave). Cells found stored or
+    claimed elsewhere advance the progress bar in ``progress``, once there is one."""
+    batch: list[PlannedGroup] = []
+
+    def claim() -> Chunk | None:
+        keys = [c.key for g in batch for c in g.cells]
+        t0 = time.perf_counter()
+        got = st.claim(run_id, keys, retry_failed=retry_failed, lease=lease)
+        tally.store_s += time.perf_counter() - t0
+        tally.skipped += got.done
+        tally.elsewhere += got.elsewhere
+        if progress and got.done + got.elsewhere:
+            progress[0].update(got.done + got.elsewhere)
+        mine = set(got.keys)
+        groups = []
+        for g in batch:
+            for c in g.cells:
+                if c.key in mine:
+                    tally.pending[c.key] = c
+            group = g.task_group(mine)
+            if group.cells:
+                groups.append(group)
+        first = batch[0]
+        batch.clear()
+        return Chunk(first.traj_key, first.h, tuple(groups)) if groups else None
+
+    for group in study.iter_groups():
+        if batch and batch[0].traj_key != group.traj_key:
+            chunk = claim()
+            if chunk is not None:
+                yield chunk
+        batch.append(group)
+        if len(batch) >= groups_per_chunk:
+            chunk = claim()
+            if chunk is not None:
+                yield chunk
+    if batch:
+        chunk = claim()
+        if chunk is not None:
+            yield chunk
+
+
+class _Heartbeat:
+    """Refresh a run's heartbeat from a thread, on its own connection, while cells
+    take long to compute."""
+
+    def __init__(self, path: Path, run_id: str, period: float) -> None:
+        self._stop = threading.Event()
+        self._thread = threading.Thread(
+            target=self._beat, args=(path, run_id, period), name="sampledyn-heartbeat", daemon=True
+        )
+        self._thread.start()
+
+    def _beat(self, path: Path, run_id: str, period: float) -> None:
+        store: ResultStore | None = None
+        try:
+            while not self._stop.wait(period):
+                try:
+                    if store is None:
+                        store = ResultStore(path, create=False)
+                    store.heartbeat(run_id)
+                except (OSError, ValueError):
+                    continue  # the main thread meets the same problem and reports it
+        finally:
+            if store is not None:
+                store.close()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
 
 
 def run_sweep(
@@ -129,13 +309,15 @@ def run_sweep(
     progress: bool = False,
     dry_run: bool = False,
     connect_timeout: float = 30.0,
+    max_cells: int | None = None,
+    lease: float = LEASE_SECONDS,
 ) -> SweepSummary:
     """Compute the cells of a sweep that the store lacks, and store them.
 
     Parameters
     ----------
     config : SweepConfig or path of a sweep TOML file
-    store : ResultStore or path of the SQLite file (created if missing)
+    store : ResultStore or path of the SQLite file (created when the run starts)
     workers : int, optional
         Run on this many local worker processes (default: in this process).
     scheduler : str, optional
@@ -146,150 +328,222 @@ def run_sweep(
     retry_failed : bool
         Recompute the cells stored with status "error".
     progress : bool
-        Show a tqdm progress bar with ETA.
+        Show a tqdm progress bar with ETA (on stderr).
     dry_run : bool
-        Plan only: count the cells to compute, compute nothing.
+        Count the cells to compute, compute nothing, write nothing (an existing store
+        is only read; a missing one is not created).
     connect_timeout : float
         Seconds to wait for the Dask scheduler.
+    max_cells : int, optional
+        Refuse a larger grid (default: the config's ``max_cells``, else
+        :data:`DEFAULT_MAX_CELLS`).
+    lease : float
+        Seconds without a heartbeat after which another run's claims are taken over.
 
     Returns
     -------
     SweepSummary
+
+    Raises
+    ------
+    SweepConfigError
+        for a bad sweep file, or a grid above ``max_cells``.
+    ValueError
+        for bad arguments, a vehicle or input that cannot be built, or a file that
+        is not a results store (``NotAStoreError``, the file left untouched).
+    FileNotFoundError, IsADirectoryError, PermissionError
+        for a store path that cannot be created or written.
+    OSError
+        with errno ``ENOSPC`` if the disk fills up (finished cells are kept).
+    ConnectionError
+        if the Dask scheduler does not answer.
+    KeyboardInterrupt
+        passed on after the run is marked "interrupted" (finished cells kept, local
+        workers terminated, claims released).
     """
     if workers is not None and scheduler is not None:
         raise ValueError("give `workers` or `scheduler`, not both.")
-    if workers is not None and workers < 1:
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise ValueError(f"`workers` must be >= 1, got {workers}.")
+    if groups_per_chunk is not None and groups_per_chunk < 1:
+        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
+    if not lease > 0:
+        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
     cfg = config if isinstance(config, SweepConfig) else load_config(config)
-    own_store = not isinstance(store, ResultStore)
-    st = ResultStore(store) if not isinstance(store, ResultStore) else store
-    try:
-        return _run(
-            cfg,
-            st,
-            workers,
-            scheduler,
-            groups_per_chunk,
-            retry_failed,
-            progress,
-            dry_run,
-            connect_timeout,
-        )
-    finally:
-        if own_store:
-            st.close()
-
-
-def _run(
-    cfg: SweepConfig,
-    st: ResultStore,
-    workers: int | None,
-    scheduler: str | None,
-    groups_per_chunk: int | None,
-    retry_failed: bool,
-    progress: bool,
-    dry_run: bool,
-    connect_timeout: float,
-) -> SweepSummary:
     t_start = time.perf_counter()
     study = plan_study(cfg)
-    status = st.statuses(c.key for c in study.cells)
-    todo = [
-        c for c in study.cells if c.key not in status or (retry_failed and status[c.key] != "ok")
-    ]
-    skipped = len(study.cells) - len(todo)
-    client = None
+    check_grid_size(study, max_cells)
     if scheduler is not None:
         backend, n_workers = f"dask:{scheduler}", 1
-        if todo and not dry_run:
-            client = connect(scheduler, connect_timeout)
-            n_workers = max(1, sum(client.nthreads().values()))
     elif workers is not None:
         backend, n_workers = f"processes:{workers}", workers
     else:
         backend, n_workers = "in-process", 1
-    if dry_run or not todo:
+    if dry_run:
+        path = store.path if isinstance(store, ResultStore) else Path(store)
+        found = _count_stored(study, path, retry_failed)
         return SweepSummary(
-            "",
-            len(study.cells),
-            skipped,
-            0,
-            0,
-            backend,
-            time.perf_counter() - t_start,
-            0.0,
-            0.0,
-            0.0,
+            "", study.n_cells, found, 0, 0, backend, time.perf_counter() - t_start,
+            0.0, 0.0, 0.0, status="dry-run",
+        )  # fmt: skip
+    if not isinstance(store, ResultStore):
+        _inspect_before_work(Path(store))
+    client = connect(scheduler, connect_timeout) if scheduler is not None else None
+    own = not isinstance(store, ResultStore)
+    try:
+        st = ResultStore(store) if not isinstance(store, ResultStore) else store
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
+    try:
+        if client is not None:
+            check_dask_workers(client)
+            n_workers = max(1, sum(client.nthreads().values()))
+        if groups_per_chunk is None:
+            groups_per_chunk = (
+                1
+                if backend == "in-process"
+                else _groups_per_chunk(study.groups_per_trajectory, n_workers)
+            )
+        summary = _run(
+            study, st, backend, workers, client, groups_per_chunk, retry_failed, progress, lease
         )
-    n_groups = len({(c.traj_key, c.eta_pct, c.v_pct, c.seed) for c in todo})
-    n_traj = len({c.traj_key for c in todo})
-    if groups_per_chunk is None:
-        groups_per_chunk = (
-            1 if backend == "in-process" else _groups_per_chunk(n_groups, n_traj, n_workers)
-        )
-    chunks = study.chunks(todo, groups_per_chunk)
-    run_id = st.start_run(
-        backend=backend, planned=len(study.cells), skipped=skipped, config=cfg.as_dict()
-    )
-    results: Iterator[ChunkResult]
-    pool = None
-    if client is not None:
-        results = dask_backend(client, study.setup, chunks, run_id)
-    elif workers is not None:
-        pool = start_pool(study.setup, chunks, workers)
-        results = local_processes(pool, study.setup, chunks)
-    else:
-        results = in_process(study.setup, chunks)
-    by_key = {c.key: c for c in todo}
-    seen_traj: set[str] = set()
-    computed = failed = 0
-    store_s = compute_s = sim_s = 0.0
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
+    except BaseException:
+        if own and st.discard_if_unused():
+            own = False
+        raise
+    finally:
+        if client is not None:
+            client.close()
+        if own:
+            st.close()
+    return SweepSummary(
+        summary.run_id, summary.planned, summary.skipped, summary.computed, summary.failed,
+        summary.backend, time.perf_counter() - t_start, summary.store_seconds,
+        summary.compute_seconds, summary.simulate_seconds, summary.elsewhere,
+        summary.duplicates, summary.status,
+    )  # fmt: skip
 
-        bar = tqdm(total=len(todo), desc="sweep", unit="cell", smoothing=0.05)
+
+def _inspect_before_work(path: Path) -> None:
+    """Fail now, before any work, on a store path that cannot become a store."""
+    if inspect_store(path) != "missing":  # raises for a folder or a foreign file
+        if not os.access(path, os.W_OK):
+            raise PermissionError(13, "the results store is not writable", str(path))
+        return
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise NotADirectoryError(20, "the store's folder is a file", str(parent))
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise PermissionError(13, "cannot create the results store in this folder", str(path))
+
+
+def _run(
+    study: Study,
+    st: ResultStore,
+    backend: str,
+    workers: int | None,
+    client: Any,
+    groups_per_chunk: int,
+    retry_failed: bool,
+    progress: bool,
+    lease: float,
+) -> SweepSummary:
+    t_start = time.perf_counter()
+    run_id = st.start_run(
+        backend=backend, planned=study.n_cells, skipped=0, config=study.config.as_dict()
+    )
+    tally = _Tally()
+    bar: list[Any] = []  # the progress bar, once there is one
+    claimed = _claimed_chunks(study, st, run_id, groups_per_chunk, retry_failed, tally, lease, bar)
+    results: Iterator[ChunkResult] | None = None
+    pool = None
+    heartbeat = None
     outcome = "failed"
     try:
+        first = next(claimed, None)
+        if first is None:  # every cell stored or being computed by another run
+            outcome = "nothing to do"
+            return SweepSummary(
+                "", study.n_cells, tally.skipped, 0, 0, backend, time.perf_counter() - t_start,
+                tally.store_s, 0.0, 0.0, tally.elsewhere, 0, outcome,
+            )  # fmt: skip
+        tasks = itertools.chain([first], claimed)
+        if client is not None:
+            results = dask_backend(client, study.setup, tasks, run_id, in_flight=2 * _n(client) + 2)
+        elif workers is not None:
+            # Fork the workers before this process starts any thread (heartbeat, bar).
+            h = next(iter(study.trajectories.values()))["h"]
+            pool = start_pool(study.setup, workers, warm_up_h=h)
+            order = [(k, float(t["h"])) for k, t in study.trajectories.items()]
+            results = local_processes(
+                pool, study.setup, tasks, in_flight=2 * workers, trajectories=order
+            )
+        else:
+            results = in_process(study.setup, tasks)
+        heartbeat = _Heartbeat(st.path, run_id, lease / 6.0)
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar.append(tqdm(total=study.n_cells, desc="sweep", unit="cell", smoothing=0.05))
+            bar[0].update(tally.skipped + tally.elsewhere)
         for res in results:
-            rows = [_cell_row(by_key[r["key"]], study, r, run_id) for r in res.rows]
-            trajs = [] if res.traj_key in seen_traj else [_traj_row(study, res, run_id)]
-            t0 = time.perf_counter()
-            st.write(rows, trajs)
-            store_s += time.perf_counter() - t0
-            if trajs:
-                seen_traj.add(res.traj_key)
-                sim_s += float(res.sim_meta.get("seconds", 0.0))
-            computed += len(rows)
-            failed += sum(r["status"] != "ok" for r in rows)
-            compute_s += sum(float(r["seconds"]) for r in rows)
-            if bar is not None:
-                bar.update(len(rows))
+            _store_result(res, study, st, run_id, tally)
+            if bar:
+                bar[0].update(len(res.rows))
         outcome = "complete"
     except KeyboardInterrupt:
         outcome = "interrupted"
         raise
     finally:
-        if bar is not None:
-            bar.close()
+        if heartbeat is not None:
+            heartbeat.stop()
+        if bar:
+            bar[0].close()
         close = getattr(results, "close", None)
         if close is not None:
             close()
-        # A generator closed before its first step skips its own cleanup.
         if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
-        if client is not None:
-            client.close()
-        st.finish_run(run_id, outcome, computed, failed)
+            # Interrupted or failed: stop the workers now, not after their tasks.
+            stop_pool(pool, terminate=outcome != "complete")
+        try:
+            if outcome == "nothing to do":
+                st.forget_run(run_id)  # a run that did nothing leaves no record
+            else:
+                st.finish_run(
+                    run_id, outcome, tally.computed, tally.failed, skipped=tally.skipped,
+                    elsewhere=tally.elsewhere, duplicates=tally.duplicates,
+                )  # fmt: skip
+        except OSError:
+            if outcome == "complete":
+                raise
+            # The run's own error (e.g. a full disk) is the one to report.
     return SweepSummary(
-        run_id,
-        len(study.cells),
-        skipped,
-        computed,
-        failed,
-        backend,
-        time.perf_counter() - t_start,
-        store_s,
-        compute_s,
-        sim_s,
-    )
+        run_id, study.n_cells, tally.skipped, tally.computed, tally.failed, backend,
+        time.perf_counter() - t_start, tally.store_s, tally.compute_s, tally.sim_s,
+        tally.elsewhere, tally.duplicates, outcome,
+    )  # fmt: skip
+
+
+def _n(client: Any) -> int:
+    return max(1, sum(client.nthreads().values()))
+
+
+def _store_result(
+    res: ChunkResult, study: Study, st: ResultStore, run_id: str, tally: _Tally
+) -> None:
+    rows = [_cell_row(tally.pending.pop(r["key"]), study, r, run_id) for r in res.rows]
+    trajs = [] if res.traj_key in tally.seen_traj else [_traj_row(study, res, run_id)]
+    t0 = time.perf_counter()
+    written = st.write(rows, trajs)
+    tally.store_s += time.perf_counter() - t0
+    if trajs:
+        tally.seen_traj.add(res.traj_key)
+        tally.sim_s += float(res.sim_meta.get("seconds", 0.0))
+    tally.computed += written
+    tally.duplicates += len(rows) - written
+    tally.failed += sum(r["status"] != "ok" for r in rows)
+    tally.compute_s += sum(float(r["seconds"]) for r in rows)

@@ -1,5 +1,12 @@
 """The results store: one SQLite file, one row per cell, written by the client only.
 
+A store is marked as such: its SQLite header carries the application id
+:data:`APPLICATION_ID` ("SDYN") and its table ``meta`` the schema version. A file
+without the mark (another application's database, a text file) is refused before
+anything is written to it, and left byte for byte as it was. Stores written before
+the mark existed (schema 1) are recognised by their tables and marked when a run
+next writes to them.
+
 Tables
 ------
 cells
@@ -15,28 +22,58 @@ trajectories
     One row per exact-sample trajectory: its configuration, certificate (largest
     scaled per-interval flow error), samples and simulation time.
 runs
-    One row per ``sweep`` invocation: start/end, status, backend, counts, config.
+    One row per ``sweep`` invocation: start/end, status ("running", "complete",
+    "interrupted", "failed", or "abandoned" once another run found it dead), backend,
+    host and pid, ``heartbeat`` (Unix time, refreshed while it runs), and what it did:
+    ``planned``, ``skipped`` (found stored), ``elsewhere`` (being computed by another
+    run), ``computed``, ``failed``, ``duplicates`` (computed, but another run had
+    stored the cell first), config.
+claims
+    Cells a running run is computing (``key``, ``run_id``, ``claimed_at``). A run
+    claims a chunk of cells before it computes them, so concurrent runs on one store
+    split the work; the claims of a run that died (its process is gone, or its
+    heartbeat is older than the lease) are taken over.
 
 The database runs in WAL mode and every batch of rows is one transaction, so a
 process killed at any moment (even SIGKILL) leaves every committed row intact and the
 file consistent. A finished ("ok") row is never replaced.
+
+SQLite errors are raised as the ``OSError`` they mean, with the store's path as
+``filename``: a full disk as errno ``ENOSPC``, a read-only file or folder as
+``PermissionError``, so callers can tell them apart.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import socket
 import sqlite3
 import time
 import uuid
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["CELL_COLUMNS", "ResultStore"]
+__all__ = [
+    "APPLICATION_ID",
+    "CELL_COLUMNS",
+    "Claim",
+    "NotAStoreError",
+    "ResultStore",
+    "inspect_store",
+    "load_results",
+]
 
-SCHEMA_VERSION = "1"
+#: SQLite ``application_id`` of a results store: the bytes "SDYN".
+APPLICATION_ID = 0x5344594E
+SCHEMA_VERSION = "2"
+_OLDER_SCHEMAS = ("1",)  # recognised by their tables, upgraded when written to
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+_SIDE_FILES = ("-wal", "-shm", "-journal")
 
 CELL_COLUMNS: tuple[tuple[str, str], ...] = (
     ("key", "TEXT PRIMARY KEY"),
@@ -100,7 +137,42 @@ _RUN_COLUMNS = (
     ("computed", "INTEGER"),
     ("failed", "INTEGER"),
     ("config", "TEXT"),
+    ("heartbeat", "REAL"),
+    ("elsewhere", "INTEGER"),
+    ("duplicates", "INTEGER"),
 )
+_RUN_COLUMNS_ADDED_IN_2 = ("heartbeat", "elsewhere", "duplicates")
+
+_CLAIM_COLUMNS = (
+    ("key", "TEXT PRIMARY KEY"),
+    ("run_id", "TEXT NOT NULL"),
+    ("claimed_at", "REAL NOT NULL"),
+)
+_TABLES = ("cells", "trajectories", "runs")
+_BATCH = 500  # keys per SQL statement (SQLite's variable limit is 32766 since 3.32)
+
+
+class NotAStoreError(ValueError):
+    """A file that is not a sampledyn results store; it was left untouched."""
+
+
+@dataclass(frozen=True)
+class Claim:
+    """What :meth:`ResultStore.claim` did with a list of cell keys.
+
+    Attributes
+    ----------
+    keys : tuple of str
+        The keys now claimed by the calling run (to compute).
+    done : int
+        Keys already stored (not to compute).
+    elsewhere : int
+        Keys claimed by another run that is still alive.
+    """
+
+    keys: tuple[str, ...]
+    done: int
+    elsewhere: int
 
 
 def _ddl(table: str, columns: Sequence[tuple[str, str]]) -> str:
@@ -108,79 +180,318 @@ def _ddl(table: str, columns: Sequence[tuple[str, str]]) -> str:
     return f"CREATE TABLE IF NOT EXISTS {table} ({cols})"
 
 
+def _uri(path: Path, **params: str) -> str:
+    query = "&".join(f"{k}={v}" for k, v in params.items())
+    return f"{path.resolve().as_uri()}?{query}"
+
+
+def os_error(exc: sqlite3.Error, path: Path) -> Exception:
+    """The ``OSError`` (or ``ValueError``) an SQLite error on the store at ``path`` means."""
+    text = str(exc)
+    low = text.lower()
+    name = str(path)
+    if "full" in low:
+        return OSError(errno.ENOSPC, f"no space left to write the results store ({text})", name)
+    if "readonly" in low or "read-only" in low:
+        return PermissionError(
+            errno.EROFS,
+            f"the results store is read-only ({text}); copy it somewhere writable",
+            name,
+        )
+    if "unable to open" in low:
+        return PermissionError(errno.EACCES, f"cannot open the results store ({text})", name)
+    if "disk i/o" in low:
+        return OSError(errno.EIO, f"I/O error on the results store ({text})", name)
+    if "locked" in low or "busy" in low:
+        return OSError(
+            errno.EBUSY, f"the results store stayed locked by another process ({text})", name
+        )
+    if "not a database" in low or "malformed" in low or "corrupt" in low:
+        return NotAStoreError(f"{name!r} is damaged or not a results store: {text}.")
+    return OSError(errno.EIO, f"results store error ({text})", name)
+
+
+@contextmanager
+def _translated(path: Path) -> Iterator[None]:
+    try:
+        yield
+    except sqlite3.Error as exc:
+        raise os_error(exc, path) from exc
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def inspect_store(path: Path) -> str:
+    """What is at ``path``: "missing", "empty" (0 bytes), "store" or "older" (a store
+    of schema 1, unmarked); anything else raises (``NotAStoreError``,
+    ``IsADirectoryError``). Reads the file's header and, only for a database without
+    an application id, its table names (immutable: nothing is created or written)."""
+    if path.is_dir():
+        raise IsADirectoryError(
+            errno.EISDIR,
+            "is a folder; give the results store a file name, e.g. results.db",
+            str(path),
+        )
+    if not path.exists():
+        return "missing"
+    with path.open("rb") as fh:
+        head = fh.read(100)
+    if not head:
+        return "empty"
+    untouched = "it was left untouched; give another file name"
+    if len(head) < 100 or not head.startswith(_SQLITE_MAGIC):
+        raise NotAStoreError(
+            f"{str(path)!r} is not a sampledyn results store (not an SQLite database); {untouched}."
+        )
+    app_id = int.from_bytes(head[68:72], "big", signed=False)
+    if app_id == APPLICATION_ID:
+        return "store"
+    tables = _table_names(path) if app_id == 0 else set()
+    if {"meta", *_TABLES} <= tables and _meta_version(path) in (SCHEMA_VERSION, *_OLDER_SCHEMAS):
+        return "older"
+    what = f"application id {app_id:#010x}" if app_id else "no sampledyn mark"
+    listed = f"; tables: {', '.join(sorted(tables))}" if tables else ""
+    raise NotAStoreError(
+        f"{str(path)!r} is an SQLite database of another application ({what}{listed}), not a "
+        f"sampledyn results store; {untouched}."
+    )
+
+
+def _read_only_query(path: Path, sql: str) -> list[tuple[Any, ...]]:
+    """Run ``sql`` on a database opened immutable (no lock, no side file); if the
+    tables are still in an unmerged write-ahead log, read it in read-only mode."""
+    modes = [{"immutable": "1"}]
+    if Path(str(path) + "-wal").exists():
+        modes.append({"mode": "ro"})
+    rows: list[tuple[Any, ...]] = []
+    for params in modes:
+        conn = sqlite3.connect(_uri(path, **params), uri=True)
+        try:
+            rows = conn.execute(sql).fetchall()
+        except sqlite3.Error:
+            rows = []
+        finally:
+            conn.close()
+        if rows:
+            break
+    return rows
+
+
+def _table_names(path: Path) -> set[str]:
+    return {
+        r[0] for r in _read_only_query(path, "SELECT name FROM sqlite_master WHERE type='table'")
+    }
+
+
+def _meta_version(path: Path) -> str | None:
+    rows = _read_only_query(path, "SELECT value FROM meta WHERE name = 'schema_version'")
+    return str(rows[0][0]) if rows else None
+
+
+def _remove_store_files(path: Path) -> None:
+    for suffix in ("", *_SIDE_FILES):
+        try:
+            Path(str(path) + suffix).unlink()
+        except FileNotFoundError:
+            pass
+
+
 class ResultStore:
-    """A results store at ``path`` (created if missing, unless ``create`` is False).
+    """A results store at ``path``.
+
+    Parameters
+    ----------
+    path : str or path
+        The SQLite file.
+    create : bool
+        Create the store if there is no file at ``path`` (its folder too).
+    readonly : bool
+        Open for reading only (SQLite ``mode=ro``; on read-only media where SQLite
+        cannot create its shared-memory file, ``immutable=1``). The store is never
+        written; SQLite may create its ``-wal``/``-shm`` side files next to it.
+    no_side_files : bool
+        With ``readonly``: if no other connection has the store open (no ``-wal``
+        file), read it immutable, creating no side file at all (for dry runs).
+
+    Attributes
+    ----------
+    path : Path
+    readonly : bool
+    created : bool
+        True if this object created the file.
 
     Raises
     ------
     FileNotFoundError
-        if ``create`` is False and there is no file at ``path``.
+        if there is no file at ``path`` and ``create`` is False (or ``readonly``).
+    IsADirectoryError
+        if ``path`` is a folder.
+    PermissionError
+        if the file or its folder cannot be written (or read).
+    NotAStoreError
+        (a ``ValueError``) if the file is not a sampledyn store; it is left untouched.
     ValueError
-        if the file is not a sampledyn store (or of a newer schema).
+        for a store of a newer schema.
+    OSError
+        with errno ``ENOSPC`` if the disk is full.
     """
 
-    def __init__(self, path: str | os.PathLike[str], *, create: bool = True) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        create: bool = True,
+        readonly: bool = False,
+        no_side_files: bool = False,
+    ) -> None:
         self.path = Path(path)
-        if not create and not self.path.is_file():
-            raise FileNotFoundError(f"no results store at {str(self.path)!r}.")
-        if create:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-        # Autocommit; writes use explicit BEGIN IMMEDIATE ... COMMIT.
-        self._conn = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
+        self.readonly = readonly
+        self._no_side_files = no_side_files
+        self.created = False
+        kind = inspect_store(self.path)
+        if kind == "missing" and (readonly or not create):
+            raise FileNotFoundError(errno.ENOENT, "no results store", str(self.path))
+        if readonly:
+            self._conn = self._connect_readonly()
+        elif kind == "missing":
+            self._conn = self._create()
+        else:
+            self._conn = self._connect()
+            with _translated(self.path):
+                if kind == "empty":
+                    self._init_schema()
+                elif kind == "older":
+                    self._upgrade()
         try:
-            self._conn.execute("PRAGMA busy_timeout = 60000")
-            if create:
-                self._conn.execute("PRAGMA journal_mode = WAL")
-                # NORMAL in WAL mode: a killed process loses nothing committed; a power
-                # cut may lose the last commits but never corrupts the file.
-                self._conn.execute("PRAGMA synchronous = NORMAL")
-                self._init_schema()
             self._check_schema()
-        except sqlite3.DatabaseError as exc:
+        except (ValueError, OSError):
             self._conn.close()
-            raise ValueError(f"{str(self.path)!r} is not a sampledyn results store: {exc}") from exc
+            raise
 
-    # -- schema -------------------------------------------------------------------
+    # -- opening ------------------------------------------------------------------
+
+    def _connect(self) -> sqlite3.Connection:
+        with _translated(self.path):
+            # Autocommit; writes use explicit BEGIN IMMEDIATE ... COMMIT.
+            conn = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
+            conn.execute("PRAGMA busy_timeout = 60000")
+            # NORMAL in WAL mode: a killed process loses nothing committed; a power cut
+            # may lose the last commits but never corrupts the file.
+            conn.execute("PRAGMA synchronous = NORMAL")
+        return conn
+
+    def _connect_readonly(self) -> sqlite3.Connection:
+        last: sqlite3.Error | None = None
+        modes = [{"mode": "ro"}, {"immutable": "1"}]
+        if self._no_side_files and not Path(str(self.path) + "-wal").exists():
+            # No write-ahead log: no connection has the store open, the file holds
+            # everything, and an immutable open reads it without creating -wal/-shm.
+            modes.reverse()
+        for params in modes:
+            conn = sqlite3.connect(_uri(self.path, **params), uri=True, timeout=60.0)
+            try:
+                conn.execute("SELECT COUNT(*) FROM meta").fetchone()
+                return conn
+            except sqlite3.OperationalError as exc:
+                # mode=ro needs the -shm file of a WAL store; on read-only media SQLite
+                # cannot create it, and only an immutable open reads the file.
+                conn.close()
+                last = exc
+        assert last is not None
+        raise os_error(last, self.path) from last
+
+    def _create(self) -> sqlite3.Connection:
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
+        except FileExistsError:  # another run created it just now: open theirs
+            return self._connect()
+        os.close(fd)
+        self.created = True
+        try:
+            conn = self._connect()
+            self._conn = conn
+            with _translated(self.path):
+                # The mark and the schema go to the file itself (rollback journal) before
+                # it switches to WAL, so the header is marked from the first moment.
+                self._init_schema()
+        except BaseException:
+            _remove_store_files(self.path)
+            raise
+        return conn
 
     def _init_schema(self) -> None:
+        conn = self._conn
+        conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
         with self._transaction():
-            self._conn.execute(
-                "CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT)"
-            )
-            self._conn.execute(
+            conn.execute("CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT)")
+            conn.execute(
                 "INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,)
             )
-            self._conn.execute(_ddl("cells", CELL_COLUMNS))
-            self._conn.execute(_ddl("trajectories", _TRAJ_COLUMNS))
-            self._conn.execute(_ddl("runs", _RUN_COLUMNS))
-            self._conn.execute("CREATE INDEX IF NOT EXISTS cells_run ON cells (run_id)")
+            conn.execute(_ddl("cells", CELL_COLUMNS))
+            conn.execute(_ddl("trajectories", _TRAJ_COLUMNS))
+            conn.execute(_ddl("runs", _RUN_COLUMNS))
+            conn.execute(_ddl("claims", _CLAIM_COLUMNS))
+            conn.execute("CREATE INDEX IF NOT EXISTS cells_run ON cells (run_id)")
+            conn.execute("CREATE INDEX IF NOT EXISTS claims_run ON claims (run_id)")
+        self._wal()
+
+    def _wal(self) -> None:
+        self._conn.execute("PRAGMA journal_mode = WAL")
+
+    def _upgrade(self) -> None:
+        """Mark a schema-1 store and add what schema 2 has (claims, run counts)."""
+        conn = self._conn
+        with self._transaction():
+            have = {r[1] for r in conn.execute("PRAGMA table_info(runs)")}
+            for name in _RUN_COLUMNS_ADDED_IN_2:
+                if name not in have:
+                    kind = dict(_RUN_COLUMNS)[name]
+                    conn.execute(f'ALTER TABLE runs ADD COLUMN "{name}" {kind}')
+            conn.execute(_ddl("claims", _CLAIM_COLUMNS))
+            conn.execute("CREATE INDEX IF NOT EXISTS claims_run ON claims (run_id)")
+            conn.execute(
+                "UPDATE meta SET value = ? WHERE name = 'schema_version'", (SCHEMA_VERSION,)
+            )
+            conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+        self._wal()
+        # Move the marked header from the log into the file itself.
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
 
     def _check_schema(self) -> None:
-        try:
-            row = self._conn.execute(
-                "SELECT value FROM meta WHERE name = 'schema_version'"
-            ).fetchone()
-        except sqlite3.OperationalError:
-            row = None
+        with _translated(self.path):
+            try:
+                row = self._conn.execute(
+                    "SELECT value FROM meta WHERE name = 'schema_version'"
+                ).fetchone()
+            except sqlite3.OperationalError:
+                row = None
         if row is None:
-            raise sqlite3.DatabaseError("no schema_version in table meta")
-        if row[0] != SCHEMA_VERSION:
+            raise NotAStoreError(f"{str(self.path)!r} has no store schema version.")
+        if row[0] not in (SCHEMA_VERSION, *_OLDER_SCHEMAS):
             raise ValueError(
                 f"{str(self.path)!r} has store schema {row[0]}, this library reads "
                 f"{SCHEMA_VERSION}; use the library version that wrote it."
             )
 
-    def _transaction(self) -> Any:
+    @contextmanager
+    def _transaction(self) -> Iterator[None]:
         conn = self._conn
-
-        class _Tx:
-            def __enter__(self) -> None:
-                conn.execute("BEGIN IMMEDIATE")
-
-            def __exit__(self, exc_type: Any, *_: Any) -> None:
-                conn.execute("ROLLBACK" if exc_type else "COMMIT")
-
-        return _Tx()
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        except BaseException:
+            conn.execute("ROLLBACK")
+            raise
+        conn.execute("COMMIT")
 
     # -- reading ------------------------------------------------------------------
 
@@ -188,18 +499,22 @@ class ResultStore:
         """``status`` of each of ``keys`` present in the store."""
         keys = list(keys)
         out: dict[str, str] = {}
-        for i in range(0, len(keys), 500):
-            part = keys[i : i + 500]
-            marks = ",".join("?" * len(part))
-            q = f"SELECT key, status FROM cells WHERE key IN ({marks})"
-            out.update(dict(self._conn.execute(q, part).fetchall()))
+        with _translated(self.path):
+            for i in range(0, len(keys), _BATCH):
+                part = keys[i : i + _BATCH]
+                marks = ",".join("?" * len(part))
+                q = f"SELECT key, status FROM cells WHERE key IN ({marks})"
+                out.update(dict(self._conn.execute(q, part).fetchall()))
         return out
 
     def count(self, table: str = "cells") -> int:
-        """Number of rows of ``table`` ("cells", "trajectories" or "runs")."""
-        if table not in ("cells", "trajectories", "runs"):
-            raise ValueError(f"unknown `table` {table!r}; valid: cells, trajectories, runs.")
-        return int(self._conn.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0])
+        """Number of rows of ``table`` ("cells", "trajectories", "runs" or "claims")."""
+        if table not in (*_TABLES, "claims"):
+            raise ValueError(
+                f"unknown `table` {table!r}; valid: cells, trajectories, runs, claims."
+            )
+        with _translated(self.path):
+            return int(self._conn.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0])
 
     def connection(self) -> sqlite3.Connection:
         """The underlying connection (for reading, e.g. with pandas)."""
@@ -212,9 +527,10 @@ class ResultStore:
         from ... import __version__
 
         run_id = uuid.uuid4().hex
+        now = time.time()
         row = {
             "run_id": run_id,
-            "started_at": time.time(),
+            "started_at": now,
             "status": "running",
             "version": __version__,
             "backend": backend,
@@ -225,27 +541,117 @@ class ResultStore:
             "computed": 0,
             "failed": 0,
             "config": json.dumps(config, sort_keys=True),
+            "heartbeat": now,
+            "elsewhere": 0,
+            "duplicates": 0,
         }
-        with self._transaction():
+        with _translated(self.path), self._transaction():
             self._insert("runs", row, conflict="ABORT")
         return run_id
 
-    def finish_run(self, run_id: str, status: str, computed: int, failed: int) -> None:
-        """Mark a run "complete", "interrupted" or "failed"."""
-        with self._transaction():
+    def heartbeat(self, run_id: str) -> None:
+        """Tell other runs that ``run_id`` is alive (its claims hold)."""
+        with _translated(self.path), self._transaction():
             self._conn.execute(
-                "UPDATE runs SET finished_at = ?, status = ?, computed = ?, failed = ? "
-                "WHERE run_id = ?",
-                (time.time(), status, computed, failed, run_id),
+                "UPDATE runs SET heartbeat = ? WHERE run_id = ?", (time.time(), run_id)
             )
+
+    def finish_run(
+        self,
+        run_id: str,
+        status: str,
+        computed: int,
+        failed: int,
+        *,
+        skipped: int | None = None,
+        elsewhere: int = 0,
+        duplicates: int = 0,
+    ) -> None:
+        """Mark a run "complete", "interrupted" or "failed", with its counts, and
+        release its claims."""
+        with _translated(self.path), self._transaction():
+            self._conn.execute(
+                "UPDATE runs SET finished_at = ?, status = ?, computed = ?, failed = ?, "
+                "skipped = COALESCE(?, skipped), elsewhere = ?, duplicates = ? WHERE run_id = ?",
+                (time.time(), status, computed, failed, skipped, elsewhere, duplicates, run_id),
+            )
+            self._conn.execute("DELETE FROM claims WHERE run_id = ?", (run_id,))
+
+    def forget_run(self, run_id: str) -> None:
+        """Delete the record and claims of a run that computed nothing."""
+        with _translated(self.path), self._transaction():
+            self._conn.execute("DELETE FROM claims WHERE run_id = ?", (run_id,))
+            self._conn.execute(
+                "DELETE FROM runs WHERE run_id = ? AND NOT EXISTS "
+                "(SELECT 1 FROM cells WHERE cells.run_id = runs.run_id)",
+                (run_id,),
+            )
+
+    def _alive(self, run_id: str, lease: float, now: float) -> bool:
+        row = self._conn.execute(
+            "SELECT status, host, pid, heartbeat, started_at FROM runs WHERE run_id = ?", (run_id,)
+        ).fetchone()
+        if row is None or row[0] != "running":
+            return False
+        status, host, pid, beat, started = row
+        if host == socket.gethostname() and pid is not None and not _process_alive(int(pid)):
+            return False
+        return now - float(beat if beat is not None else started) <= lease
+
+    def claim(
+        self, run_id: str, keys: Sequence[str], *, retry_failed: bool = False, lease: float = 60.0
+    ) -> Claim:
+        """Claim for ``run_id`` the cells of ``keys`` that are neither stored nor being
+        computed by another live run, in one transaction (so two runs never claim the
+        same cell). Claims of dead runs (process gone on this host, or no heartbeat for
+        ``lease`` seconds) are taken over and those runs marked "abandoned"."""
+        now = time.time()
+        with _translated(self.path), self._transaction():
+            stored: dict[str, str] = {}
+            owners: dict[str, str] = {}
+            for i in range(0, len(keys), _BATCH):
+                part = list(keys[i : i + _BATCH])
+                marks = ",".join("?" * len(part))
+                stored.update(
+                    self._conn.execute(
+                        f"SELECT key, status FROM cells WHERE key IN ({marks})", part
+                    ).fetchall()
+                )
+                owners.update(
+                    self._conn.execute(
+                        f"SELECT key, run_id FROM claims WHERE key IN ({marks})", part
+                    ).fetchall()
+                )
+            todo = [k for k in keys if k not in stored or (retry_failed and stored[k] != "ok")]
+            alive = {r: self._alive(r, lease, now) for r in set(owners.values()) - {run_id}}
+            dead = [r for r, ok in alive.items() if not ok]
+            for r in dead:
+                self._conn.execute("DELETE FROM claims WHERE run_id = ?", (r,))
+                self._conn.execute(
+                    "UPDATE runs SET status = 'abandoned' WHERE run_id = ? AND status = 'running'",
+                    (r,),
+                )
+            mine = [k for k in todo if k not in owners or not alive.get(owners[k], False)]
+            self._conn.executemany(
+                "INSERT OR REPLACE INTO claims (key, run_id, claimed_at) VALUES (?, ?, ?)",
+                [(k, run_id, now) for k in mine],
+            )
+            self._conn.execute("UPDATE runs SET heartbeat = ? WHERE run_id = ?", (now, run_id))
+        return Claim(tuple(mine), len(keys) - len(todo), len(todo) - len(mine))
 
     def write(
         self,
         cells: Sequence[dict[str, Any]],
         trajectories: Sequence[dict[str, Any]] = (),
-    ) -> None:
-        """Insert rows in one transaction. A cell whose key is already stored with
-        status "ok" is left as it is; an "error" row is replaced."""
+    ) -> int:
+        """Insert rows in one transaction and release their claims. A cell whose key is
+        already stored with status "ok" is left as it is; an "error" row is replaced.
+
+        Returns
+        -------
+        int
+            Cells written (the others were stored "ok" already, by another run).
+        """
         names = [n for n, _ in CELL_COLUMNS]
         cols = ", ".join(f'"{n}"' for n in names)
         updates = ", ".join(f'"{n}" = excluded."{n}"' for n in names[1:])
@@ -253,10 +659,21 @@ class ResultStore:
             f"INSERT INTO cells ({cols}) VALUES ({','.join('?' * len(names))}) "
             f"ON CONFLICT(key) DO UPDATE SET {updates} WHERE cells.status <> 'ok'"
         )
-        with self._transaction():
+        with _translated(self.path), self._transaction():
             for t in trajectories:
                 self._insert("trajectories", t, conflict="IGNORE")
-            self._conn.executemany(cell_sql, [tuple(c.get(n) for n in names) for c in cells])
+            cur = self._conn.executemany(cell_sql, [tuple(c.get(n) for n in names) for c in cells])
+            written = max(cur.rowcount, 0)
+            run_ids = {c.get("run_id") for c in cells}
+            self._conn.executemany(
+                "DELETE FROM claims WHERE key = ? AND run_id = ?",
+                [(c["key"], c.get("run_id")) for c in cells],
+            )
+            for r in run_ids:
+                self._conn.execute(
+                    "UPDATE runs SET heartbeat = ? WHERE run_id = ?", (time.time(), r)
+                )
+        return written
 
     def _insert(self, table: str, row: dict[str, Any], conflict: str) -> None:
         cols = ", ".join(f'"{k}"' for k in row)
@@ -264,6 +681,26 @@ class ResultStore:
         self._conn.execute(
             f"INSERT OR {conflict} INTO {table} ({cols}) VALUES ({marks})", tuple(row.values())
         )
+
+    def discard_if_unused(self) -> bool:
+        """Close and delete the file if this object created it, it holds no cell and no
+        run is running on it (so a failed run leaves no empty store behind). Returns
+        True if deleted."""
+        if not self.created:
+            return False
+        try:
+            with _translated(self.path):
+                running = self._conn.execute(
+                    "SELECT COUNT(*) FROM runs WHERE status = 'running'"
+                ).fetchone()[0]
+            used = self.count("cells") + running > 0
+        except OSError:
+            used = False
+        if used:
+            return False
+        self.close()
+        _remove_store_files(self.path)
+        return True
 
     def close(self) -> None:
         self._conn.close()
@@ -273,3 +710,33 @@ class ResultStore:
 
     def __exit__(self, *_: Any) -> None:
         self.close()
+
+
+def load_results(
+    path: str | os.PathLike[str], table: str = "cells", *, status: str | None = None
+) -> Any:
+    """The rows of a results store as a pandas DataFrame (see :func:`sampledyn.results.load`).
+
+    The store is opened read-only: it may sit on read-only media or be written by a
+    running sweep meanwhile.
+    """
+    import pandas as pd
+
+    if table not in _TABLES:
+        raise ValueError(f"unknown `table` {table!r}; valid: {', '.join(_TABLES)}.")
+    if status not in (None, "ok", "error"):
+        raise ValueError(f"`status` must be None, 'ok' or 'error', got {status!r}.")
+    if status is not None and table != "cells":
+        raise ValueError("`status` filters the 'cells' table only.")
+    with ResultStore(path, readonly=True) as store:
+        query = f"SELECT * FROM {table}"
+        params: tuple[Any, ...] = ()
+        if status is not None:
+            query += " WHERE status = ?"
+            params = (status,)
+        with _translated(store.path):
+            df = pd.read_sql_query(query + " ORDER BY rowid", store.connection(), params=params)
+    for col in ("computed_at", "started_at", "finished_at", "heartbeat"):
+        if col in df.columns:
+            df[col] = pd.to_datetime(df[col], unit="s", utc=True)
+    return df

@@ -4,27 +4,84 @@ from __future__ import annotations
 
 import argparse
 import csv
-from pathlib import Path
 from typing import Any
+
+from ._common import add_format, names, option, print_json, refuse, writable_file
 
 __all__ = ["add_parser"]
 
 
-def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from .errors import ERROR_NORMS
-    from .experiments.sweep._inputs import build_model
-    from .logs import evaluate_log, read_log
+def _estimating(name: str) -> bool:
+    from ..methods import get_method
 
-    if args.norm not in ERROR_NORMS:
-        raise ValueError(f"`--norm` must be one of {', '.join(ERROR_NORMS)}, got {args.norm!r}.")
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    if args.estimate:
-        methods += [m.strip() for m in args.estimate.split(",") if m.strip()]
-    try:
+    return bool(getattr(get_method(name), "estimates_params", False))
+
+
+def _check_estimate(rules: tuple[str, ...]) -> None:
+    """Every ``--estimate`` rule must estimate parameters (asked of the registry)."""
+    from ..methods import available_methods
+
+    for name in rules:
+        if not _estimating(name):
+            known = [m for m in available_methods() if _estimating(m)]
+            hint = f" ({', '.join(known)})" if known else ""
+            refuse(
+                f"`--estimate {name}`: {name} does not estimate parameters; give a rule that "
+                f"does{hint}, e.g. its estimated counterpart listed by `sampledyn methods`, "
+                f"or put {name} in --methods."
+            )
+
+
+def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[str, Any]:
+    """The document of ``evaluate --format json`` (keys in docs/cli.md)."""
+    tr = data.traj
+    est = result.estimation
+    return {
+        "source": str(data.source),
+        "vehicle": getattr(model, "name", args.vehicle),
+        "samples": int(tr.n_samples),
+        "h": float(tr.h),
+        "jitter": float(data.jitter),
+        "t_start": float(tr.t[0]),
+        "t_end": float(tr.t[-1]),
+        "notes": list(data.notes),
+        "norm": args.norm,
+        "after": args.after,
+        "rows": result.rows,
+        "estimation": None
+        if est is None
+        else {
+            "structure": est.structure,
+            "p": est.p,
+            "params": dict(est.params),
+            "units": dict(est.units),
+            "std_errors": None if est.std_errors is None else dict(est.std_errors),
+            "condition_number": est.condition_number,
+            "residual_norm": est.residual_norm,
+            "n_samples": est.n_samples,
+        },
+        "warnings": list(result.warnings),
+        "out": args.out,
+    }
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    methods = names(args.methods)
+    estimate = names(args.estimate)
+    with option("--methods"):
+        from ..methods import get_method
+
+        for name in methods:
+            get_method(name)
+    _check_estimate(estimate)
+    out = writable_file(args.out, "--out") if args.out else None
+
+    from ..experiments.sweep import build_model
+    from ..logs import evaluate_log, read_log
+
+    with option("--vehicle"):
         model = build_model(args.vehicle)
-    except FileNotFoundError as exc:
-        raise ValueError(f"`--vehicle`: {exc}") from exc
-    try:
+    with option("--data"):
         data = read_log(
             args.data,
             model,
@@ -35,9 +92,15 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             gaps=args.gaps,
             max_missing=args.max_missing,
         )
-    except FileNotFoundError as exc:
-        raise ValueError(f"`--data`: {exc}") from exc
-    result = evaluate_log(model, data, methods, norm=args.norm, after=args.after)
+    result = evaluate_log(model, data, [*methods, *estimate], norm=args.norm, after=args.after)
+    if out is not None:
+        with out.open("w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(result.rows[0]))
+            writer.writeheader()
+            writer.writerows(result.rows)
+    if args.format == "json":
+        print_json(_json(args, model, data, result))
+        return 0
     tr = data.traj
     print(
         f"{data.source}: {tr.n_samples} samples, h = {tr.h:.6g} s (jitter "
@@ -63,23 +126,19 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         print(f"\n{result.estimation}")
     for w in result.warnings:
         print(f"warning: {w}")
-    if args.out:
-        out = Path(args.out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        with out.open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(result.rows[0]))
-            writer.writeheader()
-            writer.writerows(result.rows)
+    if out is not None:
         print(f"wrote {out}")
     return 0
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     """Add the ``evaluate`` command to the subparsers ``sub``."""
-    from .logs import GAP_POLICIES, TIME_TOLERANCE
+    from ..errors import ERROR_NORMS
+    from ..logs import GAP_POLICIES, TIME_TOLERANCE
 
     ev = sub.add_parser(
         "evaluate",
+        parents=parents,
         help="local errors of sampled-data models on a real log (CSV or Parquet)",
         description=(
             "Read a vehicle log (columns t, the 12 states and the thruster rpm, units in "
@@ -106,9 +165,15 @@ def add_parser(sub: Any) -> None:
     ev.add_argument(
         "--estimate",
         default=None,
-        help="also estimate the parameters on the log: Ee or ABe<s>, e.g. ABe2",
+        help="also estimate the parameters on the log with these comma-separated rules "
+        "that estimate parameters (e.g. Ee or ABe2; see `sampledyn methods`)",
     )
-    ev.add_argument("--norm", default="rms", help="error norm (default rms)")
+    ev.add_argument(
+        "--norm",
+        default="rms",
+        choices=ERROR_NORMS,
+        help="error norm (default rms; see sampledyn.error_norm)",
+    )
     ev.add_argument(
         "--after", type=float, default=None, help="count errors on t >= AFTER s only (log time)"
     )
@@ -145,5 +210,6 @@ def add_parser(sub: Any) -> None:
         "messages and thruster curve (ArduSub); see docs/logs.md",
     )
     ev.add_argument("--no-unwrap", action="store_true", help="do not unwrap angles")
+    add_format(ev, "the error table")
     ev.add_argument("--out", default=None, help="also write the table as CSV")
     ev.set_defaults(func=_cmd_evaluate)

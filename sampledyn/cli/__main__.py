@@ -1,0 +1,7 @@
+"""``python -m sampledyn.cli``: the ``sampledyn`` command."""
+
+import sys
+
+from . import main
+
+sys.exit(main())

@@ -1,0 +1,151 @@
+"""``sampledyn advise``: which sampled-data model to use for a vehicle, h and noise."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+from ._common import add_format, names, option, pair, print_json, writable_dir
+
+__all__ = ["add_parser"]
+
+
+def _report(args: argparse.Namespace) -> int:
+    from ..sensitivity import sensitivity_report
+
+    out = writable_dir(args.report, "--report")
+    with option("--vehicle"):
+        numbers = sensitivity_report(out, vehicle=args.vehicle, T=args.T, seeds=args.seeds)
+    print(f"sensitivity report for {numbers['vehicle']} written to {out}:")
+    for p in sorted(out.glob("sensitivity_*")):
+        print(f"  {p}")
+    tight = numbers["tightness"]
+    print(
+        f"bound (24)-(25): {tight['violations']} violations in {tight['samples_checked']} "
+        f"Monte Carlo samples; AB bound/measured {tight['AB_tightness_range'][0]:.3g}-"
+        f"{tight['AB_tightness_range'][1]:.3g}"
+    )
+    return 0
+
+
+def _crossings(advice: Any) -> dict[str, list[float | None]]:
+    return {name: list(advice.curves.crossing(name)) for name in advice.curves.methods}
+
+
+def _json(advice: Any, args: argparse.Namespace, png: Path) -> dict[str, Any]:
+    """The document of ``advise --format json`` (keys in docs/cli.md)."""
+    return {
+        "vehicle": advice.vehicle,
+        "h": advice.h,
+        "noise": {"eta_pct": advice.eta_pct, "v_pct": advice.v_pct},
+        "tolerance": None if advice.tolerance is None else list(advice.tolerance),
+        "rank_by": advice.rank_by,
+        "seed": args.seed,
+        "seeds": advice.seeds,
+        "best": advice.best,
+        "rank_agreement": advice.rank_agreement,
+        "rows": [dataclasses.asdict(r) for r in advice.rows],
+        "crossings": _crossings(advice),
+        "figure": str(png),
+    }
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.report:
+        return _report(args)
+    out = writable_dir(args.out or "out/advise", "--out")
+
+    from ..models import load_vehicle
+    from ..sensitivity import DEFAULT_METHODS, advise, plot_crossing
+
+    with option("--vehicle"):
+        vehicle = load_vehicle(args.vehicle)
+    eta_pct, v_pct = args.noise
+    advice = advise(
+        vehicle,
+        args.h,
+        eta_pct,
+        v_pct,
+        methods=names(args.methods) or DEFAULT_METHODS,
+        tolerance=args.tolerance,
+        validate=not args.no_validate,
+        T=args.T,
+        seeds=args.seeds,
+        base_seed=args.seed,
+        rank_by=args.rank_by,
+    )
+    png = plot_crossing(advice.curves, out / "crossing.png", h_mark=args.h)
+    if args.format == "json":
+        print_json(_json(advice, args, png))
+        return 0
+    print(advice.table())
+    print()
+    print("Jacobian maxima over the domain (eqs. (19)-(23)):")
+    print(advice.jacobians.table())
+    crossings = [
+        f"{name} ({', '.join('-' if x is None else f'{x:.3g} s' for x in c)})"
+        for name, c in _crossings(advice).items()
+    ]
+    print("\ntruncation meets noise at h (eta, v): " + "; ".join(crossings))
+    print(f"best: {advice.best}; wrote {png}")
+    return 0
+
+
+def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:
+    """Register ``sampledyn advise`` on an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "advise",
+        parents=parents,
+        help="rank sampled-data models for a vehicle, h and noise level (section 5 and beyond)",
+        description=(
+            "Rank E, AB_s, RK_s and T by their predicted largest one-step error on noisy "
+            "samples of a reference run (a gentle version of the Fig. 6 input), beside the "
+            "guaranteed bound (24)-(25) and the measured Monte Carlo errors; with "
+            "--tolerance, the largest h that keeps each rule's error under it. Writes a "
+            "figure of truncation vs noise term against h to --out. --report DIR instead "
+            "writes the figures and numbers of docs/sensitivity.md (takes minutes)."
+        ),
+    )
+    p.add_argument("--vehicle", default="bluerov2_heavy", help="built-in name or TOML file")
+    p.add_argument("--h", type=float, default=0.1, help="sampling period in s (default 0.1)")
+    p.add_argument(
+        "--noise",
+        type=pair,
+        default=(2.0, 2.0),
+        help="noise levels eta%%,v%% of 1 m/30 deg and 1 m/s/30 deg/s (default 2,2)",
+    )
+    p.add_argument(
+        "--tolerance",
+        type=pair,
+        default=None,
+        help="error tolerance (eta[,v]) in state units; prints the largest h per rule",
+    )
+    p.add_argument(
+        "--methods",
+        default=None,
+        help="comma-separated rules (default: sampledyn.sensitivity.DEFAULT_METHODS, "
+        "the rules the bounds cover)",
+    )
+    p.add_argument("--T", type=float, default=60.0, help="reference run length in s (default 60)")
+    p.add_argument("--seeds", type=int, default=3, help="Monte Carlo noise seeds (default 3)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="root of the Monte Carlo noise seeds: seed k draws from SeedSequence([SEED, k]) "
+        "(default 0)",
+    )
+    p.add_argument("--no-validate", action="store_true", help="skip the Monte Carlo check")
+    p.add_argument(
+        "--rank-by",
+        choices=("max", "eta", "v"),
+        default="max",
+        help="rank on the larger of the position/angle (eta) and velocity (v) errors "
+        "(max, default), or on one of the two blocks",
+    )
+    add_format(p, "the ranking")
+    p.add_argument("--out", help="folder of the crossing figure (default out/advise)")
+    p.add_argument("--report", metavar="DIR", help="write the sensitivity report into DIR")
+    p.set_defaults(func=_run)

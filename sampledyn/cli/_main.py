@@ -1,0 +1,176 @@
+"""The ``sampledyn`` command: the parser, and ``main``, which turns every failure into
+one line and an exit status (see :mod:`._status`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import threading
+import traceback
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any, NoReturn
+
+from . import _advise, _evaluate, _methods, _reproduce, _sweep
+from ._common import common_options
+from ._status import (
+    EXIT_INTERRUPTED,
+    EXIT_PIPE,
+    EXIT_TERMINATED,
+    Terminated,
+    classify,
+    status_table,
+)
+
+__all__ = ["build_parser", "main"]
+
+_DEBUG_ENV = "SAMPLEDYN_DEBUG"
+# Commands quick enough to need no start-up line.
+_QUICK = {"methods"}
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``sampledyn`` argument parser (every command and option has a help text)."""
+    common = common_options()
+    parser = argparse.ArgumentParser(
+        prog="sampledyn",
+        parents=[common],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Sampled-data models of vehicle dynamics: build Euler, Tustin, Runge-Kutta and "
+            "Adams-Bashforth one-step predictors from continuous-time models, run them on "
+            "exact (and noisy) samples, and measure their local errors; reproduces the "
+            "paper 'On the Adequacy of Adams-Bashforth Sampled-Data Models for "
+            "Characterizing Complex Underwater-Vehicle Dynamics with Noisy Measurements'."
+        ),
+        epilog=(
+            "exit status:\n"
+            f"{status_table()}\n\n"
+            "Every error ends with one line 'sampledyn: error: ...' naming the file or the "
+            f"option; --debug or {_DEBUG_ENV}=1 also prints the traceback."
+        ),
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"sampledyn {_version()}", help="print the version"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    parents = [common]
+    _reproduce.add_parser(sub, parents)
+    _methods.add_parser(sub, parents)
+    _advise.add_parser(sub, parents)
+    _sweep.add_parsers(sub, parents)
+    _evaluate.add_parser(sub, parents)
+    return parser
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    raise Terminated()
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM unwinds the command like Ctrl-C (finished work is kept, workers are
+    stopped), in the main thread only (signals cannot be set elsewhere)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _format_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    line: str | None = None,
+) -> str:
+    return f"sampledyn: warning: {' '.join(str(message).split())}\n"
+
+
+@contextmanager
+def _one_line_warnings() -> Iterator[None]:
+    """Library warnings print as one line each (not file:line plus source)."""
+    previous: Callable[..., str] = warnings.formatwarning
+    warnings.formatwarning = _format_warning
+    try:
+        yield
+    finally:
+        warnings.formatwarning = previous
+
+
+def _quiet_stdout() -> None:
+    """After a broken pipe, point stdout at /dev/null so the interpreter's final
+    flush does not complain (the Python docs' recipe for SIGPIPE)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass  # stdout is not a file (e.g. captured by a test)
+
+
+def _is_terminal(stream: Any) -> bool:
+    """A person watches ``stream`` (as git, the start-up line goes to terminals only)."""
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _fail(status: int, text: str, debug: bool) -> NoReturn:
+    if debug:
+        traceback.print_exc()
+    sys.stderr.write(f"sampledyn: error: {text}\n")
+    sys.stderr.flush()
+    raise SystemExit(status)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``sampledyn`` command; returns 0 on success, raises ``SystemExit``
+    with the status of the table in ``sampledyn --help`` otherwise."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv or os.environ.get(_DEBUG_ENV, "") not in ("", "0")
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    quiet = bool(getattr(args, "quiet", False))
+    if not quiet and args.command not in _QUICK and _is_terminal(sys.stderr):
+        sys.stderr.write(
+            f"sampledyn {args.command}: loading the numerical kernels (the first run after an "
+            "install compiles them, about 15 s)...\n"
+        )
+        sys.stderr.flush()
+    try:
+        with _sigterm_as_interrupt(), _one_line_warnings():
+            result = args.func(args)
+            sys.stdout.flush()  # a closed pipe shows here, not at exit
+    except BrokenPipeError:
+        _quiet_stdout()
+        raise SystemExit(EXIT_PIPE) from None
+    except KeyboardInterrupt as exc:
+        kind, status = (
+            ("terminated (SIGTERM)", EXIT_TERMINATED)
+            if isinstance(exc, Terminated)
+            else ("interrupted (Ctrl-C)", EXIT_INTERRUPTED)
+        )
+        note = getattr(args, "on_interrupt", None)
+        _fail(status, f"{kind}" + (f"; {note}" if note else ""), debug)
+    except Exception as exc:
+        status, text = classify(exc)
+        _fail(status, text, debug)
+    return int(result or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,127 @@
+"""Exit statuses of the ``sampledyn`` command and the one-line message of each failure.
+
+Every failure ends the command with one line on stderr, ``sampledyn: error: ...``,
+naming the path or the option, and an exit status that tells its kind (the table
+below, also in ``sampledyn --help`` and ``docs/cli.md``). ``--debug`` or
+``SAMPLEDYN_DEBUG=1`` prints the traceback before that line.
+"""
+
+from __future__ import annotations
+
+import errno
+import signal
+from typing import Any
+
+__all__ = [
+    "EXIT_BAD_VALUE",
+    "EXIT_DISK",
+    "EXIT_FILE",
+    "EXIT_INTERNAL",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "EXIT_PIPE",
+    "EXIT_STATUSES",
+    "EXIT_TERMINATED",
+    "EXIT_UNAVAILABLE",
+    "EXIT_USAGE",
+    "Terminated",
+    "UsageError",
+    "classify",
+    "status_table",
+]
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_USAGE = 2
+EXIT_BAD_VALUE = 3
+EXIT_FILE = 4
+EXIT_DISK = 5
+EXIT_UNAVAILABLE = 6
+EXIT_INTERRUPTED = 128 + int(signal.SIGINT)  # 130
+EXIT_PIPE = 128 + 13  # 141, as a Unix tool killed by SIGPIPE
+EXIT_TERMINATED = 128 + int(signal.SIGTERM)  # 143
+
+#: status -> what it means (the table of ``sampledyn --help``).
+EXIT_STATUSES: dict[int, str] = {
+    EXIT_OK: "success",
+    EXIT_INTERNAL: "internal error (a bug: rerun with --debug and report the traceback)",
+    EXIT_USAGE: "usage: unknown, missing or malformed option, or one that does not apply",
+    EXIT_BAD_VALUE: "bad input value: out of range, unknown name, malformed sweep file, log, "
+    "vehicle file, or a file that is not a results store (left untouched)",
+    EXIT_FILE: "a file or folder cannot be read or written: missing, not permitted, "
+    "read-only, a folder where a file is expected or the reverse",
+    EXIT_DISK: "no space left (or an I/O error) while writing; finished results are kept",
+    EXIT_UNAVAILABLE: "a service does not answer (the Dask scheduler)",
+    EXIT_INTERRUPTED: "interrupted by Ctrl-C (SIGINT); finished results are kept",
+    EXIT_PIPE: "the reader of the output went away (e.g. `| head`); quiet, as Unix tools",
+    EXIT_TERMINATED: "terminated (SIGTERM); finished results are kept",
+}
+
+
+class UsageError(Exception):
+    """An option that does not apply, or a combination of options that does not
+    make sense (exit status 2)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C."""
+
+
+_DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO}
+
+
+def status_table() -> str:
+    """The exit statuses as lines ``  N  meaning`` (for help texts)."""
+    return "\n".join(f"  {code:>3d}  {text}" for code, text in EXIT_STATUSES.items())
+
+
+def _os_message(exc: OSError) -> str:
+    text = exc.strerror or str(exc)
+    if exc.filename is None:
+        return text
+    where = str(exc.filename)
+    if exc.filename2 is not None:
+        where += f" -> {exc.filename2}"
+    return f"{where}: {text}"
+
+
+def _sqlite_status(exc: Exception) -> int:
+    text = str(exc).lower()
+    if "full" in text or "disk i/o" in text:
+        return EXIT_DISK
+    if "readonly" in text or "unable to open" in text or "locked" in text:
+        return EXIT_FILE
+    return EXIT_BAD_VALUE
+
+
+def classify(exc: BaseException) -> tuple[int, str]:
+    """The exit status and the one-line message of ``exc``.
+
+    An option name attached as ``exc.sampledyn_option`` (see ``_common.option``)
+    prefixes the message.
+    """
+    import sqlite3
+
+    status: int
+    if isinstance(exc, UsageError):
+        status, text = EXIT_USAGE, str(exc)
+    elif isinstance(exc, ConnectionError):
+        status, text = EXIT_UNAVAILABLE, str(exc)
+    elif isinstance(exc, OSError):
+        # Anything else the system says about a path is about that file or folder.
+        status = EXIT_DISK if exc.errno in _DISK_ERRNOS else EXIT_FILE
+        text = _os_message(exc)
+    elif isinstance(exc, sqlite3.Error):
+        status, text = _sqlite_status(exc), f"SQLite: {exc}"
+    elif isinstance(exc, ValueError | TypeError):
+        status, text = EXIT_BAD_VALUE, str(exc)
+    else:
+        status = EXIT_INTERNAL
+        text = (
+            f"internal error {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
+            "and report it)"
+        )
+    option: Any = getattr(exc, "sampledyn_option", None)
+    if option and not text.startswith(option):
+        text = f"{option} {text}" if status == EXIT_FILE else f"{option}: {text}"
+    return status, " ".join(text.split())
