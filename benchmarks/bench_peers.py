@@ -700,7 +700,7 @@ def result_table(rows: list[Row], markdown: bool) -> list[str]:
     cells = [list(HEAD)]
     for r in rows:
         cells.append([
-            r.solver, r.rhs, _fmt(r.tol, ".0e"), _fmt(r.wall, ".2f"), _fmt(r.ratio, ".1f", "x"),
+            r.solver, r.rhs, _fmt(r.tol, ".0e"), _fmt(r.wall, ".3g"), _fmt(r.ratio, ".1f", "x"),
             _fmt(r.err_all, ".1e"), _fmt(r.err_kink, ".1e"), r.note,
         ])  # fmt: skip
     return render(cells, markdown)
@@ -716,7 +716,7 @@ def ladder_table(rows: list[Row], markdown: bool) -> list[str]:
         for r in peers:
             v = r.ladder.get(tol)
             line.append("-" if v is None else v if isinstance(v, str)
-                        else f"{v[0]:.1e} ({v[1]:.1e}) {v[2]:.2f} s")  # fmt: skip
+                        else f"{v[0]:.1e} ({v[1]:.1e}) {v[2]:.3g} s")  # fmt: skip
         cells.append(line)
     return render(cells, markdown) if peers else []
 

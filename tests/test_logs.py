@@ -11,7 +11,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import sampledyn as sd
 from sampledyn.cli import EXIT_BAD_VALUE, main
 from sampledyn.logs import LogFormatError, evaluate_log, read_log, synthetic_log
 

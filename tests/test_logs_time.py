@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 import sampledyn as sd
-from sampledyn.cli import main
+from sampledyn.cli import EXIT_BAD_VALUE, main
 from sampledyn.logs import LogFormatError, evaluate_log, log_from_frame, read_log
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
@@ -124,7 +124,7 @@ def test_jitter_is_kept_as_logged_and_evaluate_names_it(vehicle, frame, tmp_path
     table.to_csv(tmp_path / "jitter.csv", index=False)
     with pytest.raises(SystemExit) as exc:
         main(["evaluate", "--data", str(tmp_path / "jitter.csv"), "--vehicle", "bluerov2_heavy"])
-    assert exc.value.code == 2
+    assert exc.value.code == EXIT_BAD_VALUE
     assert "time stamps are jittered" in capsys.readouterr().err
 
 

@@ -2,42 +2,65 @@
 DataFlash log (time as logged, dropped records, units, frames, NaN, angle
 wrap-around) and measure the local errors of sampled-data models on it."""
 
-from ._evaluate import LogEvaluation as LogEvaluation
-from ._evaluate import evaluate_log as evaluate_log
-from ._read import NAN_POLICIES as NAN_POLICIES
-from ._read import TIME_TOLERANCE as TIME_TOLERANCE
-from ._read import LogData as LogData
-from ._read import log_from_frame as log_from_frame
-from ._read import read_log as read_log
-from ._synthetic import survey_input as survey_input
-from ._synthetic import synthetic_log as synthetic_log
-from ._synthetic import write_synthetic_log as write_synthetic_log
-from ._t200 import T200_VOLTAGES as T200_VOLTAGES
-from ._t200 import t200_rpm as t200_rpm
-from ._time import GAP_POLICIES as GAP_POLICIES
-from ._time import Clock as Clock
-from ._time import Sampling as Sampling
-from ._time import read_clock as read_clock
-from ._units import CONVERSIONS as CONVERSIONS
-from ._units import LogFormatError as LogFormatError
+from __future__ import annotations
 
-__all__ = [
-    "CONVERSIONS",
-    "GAP_POLICIES",
-    "NAN_POLICIES",
-    "T200_VOLTAGES",
-    "TIME_TOLERANCE",
-    "Clock",
-    "LogData",
-    "LogEvaluation",
-    "LogFormatError",
-    "Sampling",
-    "evaluate_log",
-    "log_from_frame",
-    "read_clock",
-    "read_log",
-    "survey_input",
-    "synthetic_log",
-    "t200_rpm",
-    "write_synthetic_log",
-]
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# Public name -> defining module. They load on first use, so that the command line can
+# build its parser (which names GAP_POLICIES and TIME_TOLERANCE) before the numerical
+# kernels load.
+_EXPORTS: dict[str, str] = {
+    "CONVERSIONS": "._units",
+    "GAP_POLICIES": "._time",
+    "NAN_POLICIES": "._read",
+    "T200_VOLTAGES": "._t200",
+    "TIME_TOLERANCE": "._read",
+    "Clock": "._time",
+    "LogData": "._read",
+    "LogEvaluation": "._evaluate",
+    "LogFormatError": "._units",
+    "Sampling": "._time",
+    "evaluate_log": "._evaluate",
+    "log_from_frame": "._read",
+    "read_clock": "._time",
+    "read_log": "._read",
+    "survey_input": "._synthetic",
+    "synthetic_log": "._synthetic",
+    "t200_rpm": "._t200",
+    "write_synthetic_log": "._synthetic",
+}
+
+__all__ = sorted(_EXPORTS)
+
+if TYPE_CHECKING:
+    from ._evaluate import LogEvaluation as LogEvaluation
+    from ._evaluate import evaluate_log as evaluate_log
+    from ._read import NAN_POLICIES as NAN_POLICIES
+    from ._read import TIME_TOLERANCE as TIME_TOLERANCE
+    from ._read import LogData as LogData
+    from ._read import log_from_frame as log_from_frame
+    from ._read import read_log as read_log
+    from ._synthetic import survey_input as survey_input
+    from ._synthetic import synthetic_log as synthetic_log
+    from ._synthetic import write_synthetic_log as write_synthetic_log
+    from ._t200 import T200_VOLTAGES as T200_VOLTAGES
+    from ._t200 import t200_rpm as t200_rpm
+    from ._time import GAP_POLICIES as GAP_POLICIES
+    from ._time import Clock as Clock
+    from ._time import Sampling as Sampling
+    from ._time import read_clock as read_clock
+    from ._units import CONVERSIONS as CONVERSIONS
+    from ._units import LogFormatError as LogFormatError
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'sampledyn.logs' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
