@@ -11,8 +11,10 @@ from . import sensitivity as sensitivity
 from . import signals as signals
 from ._trajectory import Certificate as Certificate
 from ._trajectory import Trajectory as Trajectory
+from ._version import __version__ as __version__
 from .errors import error_norm as error_norm
 from .errors import local_errors as local_errors
+from .estimate import EstimatedAdamsBashforth as EstimatedAdamsBashforth
 from .estimate import EstimationResult as EstimationResult
 from .estimate import estimate as estimate
 from .estimate import estimate_and_predict as estimate_and_predict
@@ -22,13 +24,10 @@ from .methods import RungeKutta as RungeKutta
 from .methods import Tustin as Tustin
 from .methods import available_methods as available_methods
 from .methods import get_method as get_method
-from .methods._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
 from .noise import add_noise as add_noise
 from .predict import predict as predict
 from .sensitivity import advise as advise
 from .simulate import simulate as simulate
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AdamsBashforth",

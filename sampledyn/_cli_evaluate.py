@@ -12,7 +12,7 @@ __all__ = ["add_parser"]
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from .errors import ERROR_NORMS
-    from .experiments.sweep._inputs import build_model
+    from .experiments.sweep import build_model
     from .logs import evaluate_log, read_log
 
     if args.norm not in ERROR_NORMS:

@@ -77,7 +77,7 @@ _TABLE_COLUMNS = [
 
 
 def _cmd_results(args: argparse.Namespace) -> int:
-    from .results import load
+    from .experiments.sweep import load_results as load
 
     try:
         df = load(args.store, args.table)

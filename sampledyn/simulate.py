@@ -22,7 +22,7 @@ from numba import njit, types
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from ._trajectory import Certificate, Trajectory
-from .models._base import RHS_SIG, RHS_TYPE, RO1, RO2, readonly
+from .models import RHS_SIG, RHS_TYPE, RO1, RO2, readonly
 
 __all__ = ["IntegrationError", "simulate"]
 

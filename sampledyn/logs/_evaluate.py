@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -11,15 +10,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import error_norm, local_errors
-from ..estimate import EstimationResult, estimate_and_predict
+from ..estimate import EstimationResult
 from ..methods import get_method
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
 from ._read import LogData
 
 __all__ = ["LogEvaluation", "evaluate_log"]
-
-_ESTIMATED = re.compile(r"^(?:Ee|ABe(\d+))$")
 
 
 @dataclass(frozen=True)
@@ -105,19 +102,14 @@ def evaluate_log(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for name in methods:
-            m_est = _ESTIMATED.match(name)
-            if m_est:
-                s = int(m_est.group(1) or 1)
-                x_hat, estimation = estimate_and_predict(model, data.traj, f"AB{s}", after=after)
-                history, order = s, s
+            method: Any = get_method(name)
+            if method.estimates_params:
+                x_hat, estimation = method.estimate_and_predict(model, data.traj, after=after)
             else:
-                method = get_method(name)
                 x_hat = predict(method, model, data.traj)
-                history = int(getattr(method, "history", 1))
-                order = int(method.order)
             err = local_errors(x_hat, data.traj)
-            row = {"method": name, "order": order}
-            row.update(_norms(err, data, _mask(data.valid, history), norm, after))
+            row = {"method": name, "order": int(method.order)}
+            row.update(_norms(err, data, _mask(data.valid, method.history), norm, after))
             rows.append(row)
     msgs = tuple(dict.fromkeys(str(w.message) for w in caught))
     return LogEvaluation(rows, estimation, msgs)

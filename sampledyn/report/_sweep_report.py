@@ -321,7 +321,7 @@ def write_report(
     ValueError
         if the store holds no cells.
     """
-    from ..results import load
+    from ..experiments.sweep import load_results as load
 
     cells = load(source)
     if cells.empty:
