@@ -170,7 +170,7 @@ def uniform_step(data: Trajectory, method: str) -> float:
         if dev[n] > 1e-6 * h:
             raise ValueError(
                 f"the data are not uniformly sampled with h={h} s: t[{n + 1}] - t[{n}] = "
-                f"{steps[n]:g} s, the largest deviation from h ({dev[n]:.3g} s). {method} "
+                f"{steps[n]:g} s, {dev[n]:.3g} s from h (the largest deviation). {method} "
                 "predicts on a uniform grid only; resample the data to a uniform grid."
             )
     return h

@@ -133,9 +133,16 @@ def register_family(
     for name in fam.names():
         if not rx.fullmatch(name):
             raise ValueError(f"`pattern` {pattern!r} does not match {name!r}, a name of {key!r}.")
-        for other in _FAMILIES.values():
-            if other.key != key and other.pattern.fullmatch(name):
-                raise ValueError(f"name {name!r} of {key!r} is already taken by {other.key!r}.")
+    for other in _FAMILIES.values():
+        if other.key == key:
+            continue
+        for a, b in ((fam, other), (other, fam)):
+            taken = [n for n in a.names() if b.pattern.fullmatch(n)]
+            if taken:
+                raise ValueError(
+                    f"name {taken[0]!r} of {a.key!r} is already taken by {b.key!r}: the "
+                    f"families {key!r} and {other.key!r} would share names."
+                )
     _FAMILIES[key] = fam
     return fam
 
