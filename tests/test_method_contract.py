@@ -347,3 +347,13 @@ def test_noise_gain_rejects_bad_arguments(name):
     # first order: G = c h L + O((h L)^2)
     g = m.noise_gain(1e-7, np.eye(2))
     np.testing.assert_allclose(g / 1e-7, float(m.first_order_gain) * np.eye(2), rtol=1e-5)
+
+
+@pytest.mark.parametrize("name", FIXED)
+def test_short_data_give_only_nan_rows(name, auv_run):
+    model, signal, traj = auv_run
+    m = get_method(name)
+    short = traj.replace(t=traj.t[: m.history], x=traj.x[: m.history], u=traj.u[: m.history])
+    assert np.isnan(m.predict(model, short, signal)).all()
+    phi = m.prediction_jacobians(model, short, signal)
+    assert phi.shape == (m.history, m.history, 2, 2) and np.isnan(phi).all()

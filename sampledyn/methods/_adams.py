@@ -169,14 +169,16 @@ def _ab_fir(x, f, h, w, out):  # pragma: no cover - compiled
                 o[j] += c * fr[j]
 
 
-def lagged_jacobians(lagged: list[np.ndarray], h: float, weights: np.ndarray, n: int) -> np.ndarray:
+def lagged_jacobians(
+    lagged: list[np.ndarray], h: float, weights: np.ndarray, n: int, nx: int
+) -> np.ndarray:
     """``phi[k, i] = [i == 0] I + h w_i J_i[k - s]`` for rows k >= s, NaN above.
 
     ``lagged[i]`` (shape (N - s, nx, nx)) is df/dx at the point the rule evaluates
-    for history lag i of the predictions of rows s..N-1. Shape (N, s, nx, nx).
+    for history lag i of the predictions of rows s..N-1 (empty for N <= s).
+    Shape (N, s, nx, nx).
     """
     s = len(weights)
-    nx = lagged[0].shape[-1] if lagged else 0
     phi = np.full((n, s, nx, nx), np.nan)
     if n <= s:
         return phi
@@ -281,10 +283,12 @@ class AdamsBashforth(FixedRule):
         """``Phi_{k,0} = I + h a_0 F(x_{k-1})``, ``Phi_{k,i} = h a_i F(x_{k-1-i})``,
         shape (N, s, nx, nx) (F = df/dx at the samples)."""
         h = uniform_step(data, self.name)
-        jac = sample_jacobian(model, data, cache)
         n, s = data.n_samples, self.order
-        lagged = [jac[s - 1 - i : n - 1 - i] for i in range(s)] if n > s else []
-        return lagged_jacobians(lagged, h, self.weights, n)
+        if n <= s:
+            return lagged_jacobians([], h, self.weights, n, data.nx)
+        jac = sample_jacobian(model, data, cache)
+        lagged = [jac[s - 1 - i : n - 1 - i] for i in range(s)]
+        return lagged_jacobians(lagged, h, self.weights, n, data.nx)
 
     def truncation_differences(
         self,
