@@ -1,6 +1,8 @@
 """The paper's case studies as data and functions (Figs. 2-3, Fig. 7)."""
 
 from ._auv import AUVStudy as AUVStudy
+from ._auv import away_from_jumps as away_from_jumps
+from ._auv import away_from_kinks as away_from_kinks
 from ._auv import fig2_methods as fig2_methods
 from ._auv import fig3_methods as fig3_methods
 from ._auv import run_auv_study as run_auv_study
@@ -17,6 +19,8 @@ __all__ = [
     "PAPER_FIG7",
     "AUVStudy",
     "ROVStudy",
+    "away_from_jumps",
+    "away_from_kinks",
     "fig2_methods",
     "fig3_methods",
     "fig7_vehicle",
