@@ -1,5 +1,6 @@
 """Sampled-data rules: Euler, Tustin, Runge-Kutta, Adams-Bashforth (also with the input
-held over the predicted interval, ABu_s), and the registry of their names.
+held over the predicted interval, ABu_s, and with its history rebuilt after an input
+jump, ABj_s), and the registry of their names.
 
 Every rule answers the questions of the :class:`Method` protocol itself (family,
 order, history, prediction, noise gain, prediction Jacobians, error constant, label);
@@ -10,7 +11,7 @@ registered by :mod:`sampledyn.estimate`.
 
 # isort: off
 # Each rule module registers its families on import, and registration order is listing
-# order (available_methods, `sampledyn methods`, the figures): E, AB, T, RK, ABu.
+# order (available_methods, `sampledyn methods`, the figures): E, AB, T, RK, ABu, ABj.
 from ._registry import Family as Family
 from ._registry import available_methods as available_methods
 from ._registry import describe_methods as describe_methods
@@ -40,6 +41,7 @@ from ._runge_kutta import TABLEAUX as TABLEAUX
 from ._runge_kutta import ButcherTableau as ButcherTableau
 from ._runge_kutta import RungeKutta as RungeKutta
 from ._held import HeldInputAdamsBashforth as HeldInputAdamsBashforth
+from ._jump import JumpAwareAdamsBashforth as JumpAwareAdamsBashforth
 # isort: on
 
 __all__ = [
@@ -52,6 +54,7 @@ __all__ = [
     "Family",
     "FixedRule",
     "HeldInputAdamsBashforth",
+    "JumpAwareAdamsBashforth",
     "Method",
     "RungeKutta",
     "Tustin",
