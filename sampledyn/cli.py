@@ -184,9 +184,10 @@ def build_parser() -> argparse.ArgumentParser:
         "reproduce",
         help="regenerate a figure or table of the paper (fig2, fig3, fig7)",
         description=(
-            "fig2: local-error norms of AB_s (s = 1..6) and of the estimated Ee, ABe_s "
-            "against s, one curve per h_u/h, on the AUV-like system (9)-(10). fig3: the "
-            "same for E, T, RK_s (s = 1..4) and Ee. "
+            "fig2: local-error norms of the multistep rules of the registry (AB_s, ABu_s, "
+            "ABj_s and the estimated ABe_s, s = 1..6) against s, one curve per h_u/h, on "
+            "the AUV-like system (9)-(10). fig3: the same for the one-step rules (E, T, "
+            "RK_s for s = 1..4, Ee). "
             "fig7: the ROV study of section 6 on the BlueROV2 Heavy (T = 5000 s, errors "
             "from 1000 s, h in {0.1, 0.5}, the 12 noise pairs, AB1-AB4 and RK4, Monte Carlo "
             "over --seeds, with a roll-pitch hold unless --open-loop), printed in the "
