@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import lru_cache
 from math import comb
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
@@ -39,6 +39,7 @@ from ._registry import register_family
 __all__ = [
     "STABILITY_INTERVAL_MIN",
     "AdamsBashforth",
+    "AdamsRule",
     "Euler",
     "ab_coefficients",
     "ab_error_constant",
@@ -189,8 +190,68 @@ def lagged_jacobians(
 
 
 @dataclass(frozen=True)
-class AdamsBashforth(FixedRule):
-    """Adams-Bashforth rule of order s (explicit, s-step).
+class AdamsRule(FixedRule):
+    """What the rules that weight an f-history with the AB_s coefficients share (AB_s,
+    ABu_s, ABj_s): order s, history s, coefficients, noise gain a_s, error constant
+    gamma_s, the stability warning past s = 6. Subclasses set ``FAMILY`` (also the
+    prefix of their default name) and say how the f-history is made."""
+
+    FAMILY: ClassVar[str] = "AB"
+
+    order: int
+    name: str = ""
+    coefficients: tuple[Fraction, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "coefficients", ab_coefficients(self.order))
+        if not self.name:
+            object.__setattr__(self, "name", f"{self.FAMILY}{self.order}")
+        warn_if_unstable(self.order, self.name)
+
+    @property
+    def family(self) -> str:
+        return self.FAMILY
+
+    @property
+    def history(self) -> int:
+        """Number of past samples the rule needs: s."""
+        return self.order
+
+    @property
+    def intersample(self) -> bool:
+        """False: f only at the sample times, the input held over the interval."""
+        return False
+
+    @property
+    def a_s(self) -> Fraction:
+        """sum of |a_i|, the noise gain of eqs. (24)-(25)."""
+        return sum((abs(a) for a in self.coefficients), Fraction(0))
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Coefficients as floats, newest first, shape (s,)."""
+        return np.array([float(a) for a in self.coefficients])
+
+    @property
+    def first_order_gain(self) -> Fraction:
+        """a_s = sum |a_i|: the noise gain is ``h a_s L`` (eqs. (11)-(12), (24)-(25))."""
+        return self.a_s
+
+    @property
+    def error_constant(self) -> Fraction:
+        """gamma_s: local error ``gamma_s h^{s+1} x^{(s+1)}`` where the history is smooth."""
+        return ab_error_constant(self.order)
+
+    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+        """``G = h a_s L`` (eqs. (11)-(12), (24)-(25); the printed (11) lacks the factor h,
+        which the dimensions require)."""
+        h, L = check_gain_args(h, lipschitz)
+        return h * float(self.a_s) * L
+
+
+@dataclass(frozen=True)
+class AdamsBashforth(AdamsRule):
+    """Adams-Bashforth rule of order s (explicit, s-step), family "AB" (Euler is AB1).
 
     Attributes
     ----------
@@ -203,52 +264,9 @@ class AdamsBashforth(FixedRule):
         sum of |a_i|, the noise gain of eqs. (24)-(25).
     """
 
-    order: int
-    name: str = ""
-    coefficients: tuple[Fraction, ...] = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "coefficients", ab_coefficients(self.order))
-        if not self.name:
-            object.__setattr__(self, "name", f"AB{self.order}")
-        warn_if_unstable(self.order, self.name)
-
-    @property
-    def family(self) -> str:
-        """ "AB" (Euler is AB1)."""
-        return "AB"
-
-    @property
-    def intersample(self) -> bool:
-        """False: f only at the samples."""
-        return False
-
-    @property
-    def a_s(self) -> Fraction:
-        return sum((abs(a) for a in self.coefficients), Fraction(0))
-
-    @property
-    def weights(self) -> np.ndarray:
-        """Coefficients as floats, newest first, shape (s,)."""
-        return np.array([float(a) for a in self.coefficients])
-
     @property
     def sample_weights(self) -> np.ndarray:
         return self.weights
-
-    @property
-    def history(self) -> int:
-        """Number of past samples the rule needs."""
-        return self.order
-
-    @property
-    def first_order_gain(self) -> Fraction:
-        """a_s = sum |a_i|: the noise gain is ``h a_s L`` (eqs. (11)-(12), (24)-(25))."""
-        return self.a_s
-
-    @property
-    def error_constant(self) -> Fraction:
-        return ab_error_constant(self.order)
 
     def predict(
         self,
@@ -265,12 +283,6 @@ class AdamsBashforth(FixedRule):
         """
         h = uniform_step(data, self.name)
         return ab_filter(data.x, sample_f(model, data, cache), h, self.weights)
-
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
-        """``G = h a_s L`` (eqs. (11)-(12), (24)-(25); the printed (11) lacks the factor h,
-        which the dimensions require)."""
-        h, L = check_gain_args(h, lipschitz)
-        return h * float(self.a_s) * L
 
     def prediction_jacobians(
         self,

@@ -148,6 +148,22 @@ class FixedRule:
     def estimates_params(self) -> bool:
         return False
 
+    @property
+    def sample_weights(self) -> np.ndarray | None:
+        """None unless the rule is a fixed filter of f at the samples."""
+        return None
+
+    def truncation_differences(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray | None:
+        """None unless the rule's leading error is read off differences of f."""
+        return None
+
 
 # ---------------------------------------------------------------------------------
 # shared pieces

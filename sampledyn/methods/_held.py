@@ -18,22 +18,14 @@ only where u_{n-i} differs from u_n.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from fractions import Fraction
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._adams import ab_coefficients, ab_error_constant, lagged_jacobians, warn_if_unstable
-from ._base import (
-    FixedRule,
-    check_gain_args,
-    nan_rows,
-    sample_f,
-    sample_jacobian,
-    uniform_step,
-)
+from ._adams import AdamsRule, lagged_jacobians
+from ._base import nan_rows, sample_f, sample_jacobian, uniform_step
 from ._registry import register_family
 
 __all__ = ["HeldInputAdamsBashforth", "held_history"]
@@ -65,7 +57,7 @@ def held_history(
 
 
 @dataclass(frozen=True)
-class HeldInputAdamsBashforth(FixedRule):
+class HeldInputAdamsBashforth(AdamsRule):
     """ABu_s: Adams-Bashforth of order s with the f-history taken at the current input.
 
     Attributes
@@ -76,47 +68,28 @@ class HeldInputAdamsBashforth(FixedRule):
         a_0..a_{s-1} of AB_s, newest first.
     """
 
-    order: int
-    name: str = ""
-    coefficients: tuple[Fraction, ...] = field(init=False, repr=False)
+    FAMILY: ClassVar[str] = "ABu"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "coefficients", ab_coefficients(self.order))
-        if not self.name:
-            object.__setattr__(self, "name", f"ABu{self.order}")
-        warn_if_unstable(self.order, self.name)
+    def _history(
+        self, model: Any, data: Trajectory, cache: Any, derivatives: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The f-history of the predictions of rows s..N-1 (N > s), ``(g, rows, d, jac)``.
 
-    @property
-    def family(self) -> str:
-        return "ABu"
-
-    @property
-    def history(self) -> int:
-        return self.order
-
-    @property
-    def intersample(self) -> bool:
-        """False: the input over the interval is the held sample u_n."""
-        return False
-
-    @property
-    def sample_weights(self) -> None:
-        """None: the f-history is not f at the samples (it uses u_n throughout)."""
-        return None
-
-    @property
-    def weights(self) -> np.ndarray:
-        return np.array([float(a) for a in self.coefficients])
-
-    @property
-    def first_order_gain(self) -> Fraction:
-        """a_s = sum |a_i|, as for AB_s (L bounds df/dx at every state and input)."""
-        return sum((abs(a) for a in self.coefficients), Fraction(0))
-
-    @property
-    def error_constant(self) -> Fraction:
-        """gamma_s of AB_s, where u is constant over the history and the step."""
-        return ab_error_constant(self.order)
+        g, shape (N - s, s, nx): ``g[r, i] = f(t_{n-i}, x_{n-i}, u_n)``, n = r + s - 1.
+        jac, shape (N - s, s, nx, nx): df/dx at the same points (with ``derivatives``).
+        rows, d: where a subclass rebuilds the history (indices into g) and, there, the
+        derivatives ``d[r, j, l] = dg_j / dx_{n-l}``; none here.
+        """
+        s, n = self.order, data.n_samples
+        f = sample_f(model, data, cache)
+        g = np.stack([held_history(model.f, f, data, s - 1, i, n - 1) for i in range(s)], 1)
+        jac = None
+        if derivatives:
+            j = sample_jacobian(model, data, cache)
+            jac = np.stack(
+                [held_history(model.jacobian, j, data, s - 1, i, n - 1) for i in range(s)], 1
+            )
+        return g, np.zeros(0, dtype=np.int64), None, jac
 
     def predict(
         self,
@@ -135,17 +108,12 @@ class HeldInputAdamsBashforth(FixedRule):
         out = nan_rows(data, (data.nx,))
         if n <= s:
             return out
-        f = sample_f(model, data, cache)
+        g = self._history(model, data, cache, derivatives=False)[0]
         acc = np.array(data.x[s - 1 : n - 1], dtype=float)
-        for i, w in enumerate(self.weights):
-            acc += (h * w) * held_history(model.f, f, data, s - 1, i, n - 1)
+        for k, w in enumerate(self.weights):
+            acc += (h * w) * g[:, k]
         out[s:] = acc
         return out
-
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
-        """``G = h a_s L``, as for AB_s."""
-        h, L = check_gain_args(h, lipschitz)
-        return h * float(self.first_order_gain) * L
 
     def prediction_jacobians(
         self,
@@ -156,14 +124,20 @@ class HeldInputAdamsBashforth(FixedRule):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """``Phi_{k,0} = I + h a_0 F(x_{k-1}, u_{k-1})``, ``Phi_{k,i} = h a_i
-        F(x_{k-1-i}, u_{k-1})``, shape (N, s, nx, nx)."""
+        F(x_{k-1-i}, u_{k-1})``, shape (N, s, nx, nx); where a subclass rebuilds the
+        history, ``Phi_{k,l} = [l = 0] I + h sum_j a_j dg_j / dx_{k-1-l}``."""
         h = uniform_step(data, self.name)
         s, n = self.order, data.n_samples
         if n <= s:
             return lagged_jacobians([], h, self.weights, n, data.nx)
-        jac = sample_jacobian(model, data, cache)
-        lagged = [held_history(model.jacobian, jac, data, s - 1, i, n - 1) for i in range(s)]
-        return lagged_jacobians(lagged, h, self.weights, n, data.nx)
+        _, rows, d, jac = self._history(model, data, cache, derivatives=True)
+        assert jac is not None
+        phi = lagged_jacobians([jac[:, i] for i in range(s)], h, self.weights, n, data.nx)
+        if rows.size and d is not None:
+            rebuilt = h * np.einsum("j,rjlab->rlab", self.weights, d)
+            rebuilt[:, 0] += np.eye(data.nx)
+            phi[s + rows] = rebuilt
+        return phi
 
     def truncation_differences(
         self,

@@ -28,24 +28,16 @@ when ``h L (s - 1)`` is well below 1 (L = ||df/dx||).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from functools import lru_cache
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._adams import ab_coefficients, ab_error_constant, lagged_jacobians, warn_if_unstable
-from ._base import (
-    FixedRule,
-    check_gain_args,
-    nan_rows,
-    sample_f,
-    sample_jacobian,
-    uniform_step,
-)
-from ._held import held_history
+from ._base import check_gain_args, sample_f
+from ._held import HeldInputAdamsBashforth
 from ._registry import register_family
 
 __all__ = ["JumpAwareAdamsBashforth", "backward_weights"]
@@ -80,8 +72,8 @@ def backward_weights(s: int) -> tuple[tuple[Fraction, ...], ...]:
 
 
 @dataclass(frozen=True)
-class JumpAwareAdamsBashforth(FixedRule):
-    """ABj_s: AB_s with the input held and the f-history rebuilt after an input jump.
+class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
+    """ABj_s: ABu_s with the f-history rebuilt where it holds an input jump.
 
     Attributes
     ----------
@@ -91,119 +83,48 @@ class JumpAwareAdamsBashforth(FixedRule):
         a_0..a_{s-1} of AB_s, newest first.
     """
 
-    order: int
-    name: str = ""
-    coefficients: tuple[Fraction, ...] = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "coefficients", ab_coefficients(self.order))
-        if not self.name:
-            object.__setattr__(self, "name", f"ABj{self.order}")
-        warn_if_unstable(self.order, self.name)
-
-    @property
-    def family(self) -> str:
-        return "ABj"
-
-    @property
-    def history(self) -> int:
-        return self.order
-
-    @property
-    def intersample(self) -> bool:
-        """False: the input over the interval is the held sample u_n."""
-        return False
-
-    @property
-    def sample_weights(self) -> None:
-        return None
-
-    @property
-    def weights(self) -> np.ndarray:
-        return np.array([float(a) for a in self.coefficients])
-
-    @property
-    def first_order_gain(self) -> Fraction:
-        """a_s = sum |a_i|, as for AB_s."""
-        return sum((abs(a) for a in self.coefficients), Fraction(0))
-
-    @property
-    def error_constant(self) -> Fraction:
-        """gamma_s of AB_s (on the rebuilt history after a jump)."""
-        return ab_error_constant(self.order)
+    FAMILY: ClassVar[str] = "ABj"
 
     # -- the rule --------------------------------------------------------------------
 
     def _history(
         self, model: Any, data: Trajectory, cache: Any, derivatives: bool
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """``(g, rows, D, lagged)`` for the predictions of rows s..N-1: g (N-s, s, nx) the
-        history the rule uses; rows the indices (into g) rebuilt after a jump; with
-        ``derivatives``, D (len(rows), s, s, nx, nx) = dg_j / dx_{n-l} there and lagged
-        (N-s, s, nx, nx) = df/dx at the held history elsewhere."""
-        s, n_s, h = self.order, data.n_samples, data.h
-        n = np.arange(s - 1, n_s - 1)
-        f = sample_f(model, data, cache)
-        g = np.stack([held_history(model.f, f, data, s - 1, i, n_s - 1) for i in range(s)], 1)
+        """ABu_s's history, rebuilt (see the module docstring) on the predictions whose
+        history holds an input change; with ``derivatives`` also d there, forward mode
+        through the sweeps."""
+        g, _, _, jac = super()._history(model, data, cache, derivatives)
+        s, h = self.order, data.h
+        n = np.arange(s - 1, data.n_samples - 1)
         moved = np.zeros(n.size, dtype=bool)
         for i in range(1, s):
             moved |= (data.u[n - i] != data.u[n]).any(axis=1)
         rows = np.flatnonzero(moved)
-        lagged = d = None
-        if derivatives:
-            jac = sample_jacobian(model, data, cache)
-            lagged = np.stack(
-                [held_history(model.jacobian, jac, data, s - 1, i, n_s - 1) for i in range(s)], 1
-            )
+        d = None
+        if jac is not None:
             d = np.zeros((rows.size, s, s, data.nx, data.nx))
             for i in range(s):
-                d[:, i, i] = lagged[rows, i]
+                d[:, i, i] = jac[rows, i]
         if rows.size == 0:
-            return g, rows, d, lagged
+            return g, rows, d, jac
         c = np.array(backward_weights(s), dtype=float)[1:]  # rows j = 1..s-1
         nn = n[rows]
         xn, un = data.x[nn], data.u[nn]
-        past = nn[:, None] - np.arange(1, s)[None, :]  # sample indices n - j
-        tj = data.t[past].reshape(-1)
+        tj = data.t[nn[:, None] - np.arange(1, s)[None, :]].reshape(-1)  # t_{n-j}
         uj = np.repeat(un, s - 1, axis=0)
         gm = g[rows]
         eye = np.eye(data.nx)
         for _ in range(s - 1):
-            y = xn[:, None, :] - h * np.einsum("jk,rkx->rjx", c, gm)
-            flat = y.reshape(-1, data.nx)
+            y = (xn[:, None, :] - h * np.einsum("jk,rkx->rjx", c, gm)).reshape(-1, data.nx)
             if d is not None:
                 dy = -h * np.einsum("jk,rklab->rjlab", c, d)
                 dy[:, :, 0] += eye
-                jy = np.asarray(model.jacobian(tj, flat, uj)).reshape(rows.size, s - 1, *eye.shape)
+                jy = np.asarray(model.jacobian(tj, y, uj)).reshape(rows.size, s - 1, *eye.shape)
                 d[:, 1:] = np.einsum("rjab,rjlbc->rjlac", jy, dy)
             gm = gm.copy()
-            gm[:, 1:] = np.asarray(model.f(tj, flat, uj)).reshape(rows.size, s - 1, data.nx)
+            gm[:, 1:] = np.asarray(model.f(tj, y, uj)).reshape(rows.size, s - 1, data.nx)
         g[rows] = gm
-        return g, rows, d, lagged
-
-    def predict(
-        self,
-        model: Any,
-        data: Trajectory,
-        signal: Any = None,
-        *,
-        cache: dict[Any, Any] | None = None,
-    ) -> np.ndarray:
-        """One-step-ahead predictions, shape (N, nx), NaN in the first s rows.
-
-        ``signal`` is not used: the input over the interval is the held sample u_n.
-        """
-        h = uniform_step(data, self.name)
-        s, n = self.order, data.n_samples
-        out = nan_rows(data, (data.nx,))
-        if n <= s:
-            return out
-        g = self._history(model, data, cache, derivatives=False)[0]
-        acc = np.array(data.x[s - 1 : n - 1], dtype=float)
-        for k, w in enumerate(self.weights):
-            acc += (h * w) * g[:, k]
-        out[s:] = acc
-        return out
+        return g, rows, d, jac
 
     def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
         """The larger of AB_s's ``h a_s L`` (rows whose history holds no jump) and the
@@ -225,30 +146,7 @@ class JumpAwareAdamsBashforth(FixedRule):
             ]
         w = np.abs(self.weights)
         jump = h * L + h * sum((w[j] * e[j] for j in range(1, s)), np.zeros_like(L))
-        return np.maximum(h * float(self.first_order_gain) * L, jump)
-
-    def prediction_jacobians(
-        self,
-        model: Any,
-        data: Trajectory,
-        signal: Any = None,
-        *,
-        cache: dict[Any, Any] | None = None,
-    ) -> np.ndarray:
-        """``d x_hat[k] / d x[k-1-l] = [l = 0] I + h sum_j a_j dg_j / dx[k-1-l]``, forward
-        mode through the sweeps where the history is rebuilt; shape (N, s, nx, nx)."""
-        h = uniform_step(data, self.name)
-        s, n = self.order, data.n_samples
-        if n <= s:
-            return lagged_jacobians([], h, self.weights, n, data.nx)
-        _, rows, d, lagged = self._history(model, data, cache, derivatives=True)
-        assert d is not None and lagged is not None
-        phi = lagged_jacobians([lagged[:, i] for i in range(s)], h, self.weights, n, data.nx)
-        if rows.size:
-            rebuilt = h * np.einsum("j,rjlab->rlab", self.weights, d)
-            rebuilt[:, 0] += np.eye(data.nx)
-            phi[s + rows] = rebuilt
-        return phi
+        return np.maximum(h * float(self.a_s) * L, jump)
 
     def truncation_differences(
         self,

@@ -265,16 +265,6 @@ class RungeKutta(FixedRule):
         assert phi is not None
         return phi
 
-    def truncation_differences(
-        self,
-        model: Any,
-        data: Trajectory,
-        signal: Any = None,
-        *,
-        cache: dict[Any, Any] | None = None,
-    ) -> None:
-        return None
-
 
 register_family(
     "RK<s>",

@@ -60,10 +60,6 @@ class Tustin(FixedRule):
         return True
 
     @property
-    def sample_weights(self) -> None:
-        return None
-
-    @property
     def first_order_gain(self) -> Fraction:
         return Fraction(1)
 
@@ -147,17 +143,6 @@ class Tustin(FixedRule):
         phi = nan_rows(data, (1, data.nx, data.nx))
         phi[1:, 0] = np.linalg.solve(eye - 0.5 * h * f1, eye + 0.5 * h * f0)
         return phi
-
-    def truncation_differences(
-        self,
-        model: Any,
-        data: Trajectory,
-        signal: Any = None,
-        *,
-        cache: dict[Any, Any] | None = None,
-    ) -> None:
-        """None: the trapezoid's error is not read off differences of sampled f."""
-        return None
 
 
 register_family("T", r"T", Tustin, "Tustin, implicit trapezoid")
