@@ -131,7 +131,8 @@ class Method(Protocol):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray | None:
         """s-th backward differences of the extrapolated derivative values, one row
-        per prediction with a full difference stencil; None without an error constant."""
+        per prediction with a full difference stencil (possibly none); None without an
+        error constant."""
         ...
 
 

@@ -212,7 +212,7 @@ def truncation_errors(
 def _truncation_estimate(model: Any, m: Any, clean: Trajectory) -> tuple[float, float] | None:
     """``C h max ||nabla^s f||`` per block, for the rules that extrapolate sampled f."""
     d = m.truncation_differences(model, clean)
-    if d is None or m.error_constant is None:
+    if d is None or d.shape[0] == 0 or m.error_constant is None:
         return None
     gamma = float(error_constant(m) or 0)
     e_eta, e_v = block_error_norms(d)
