@@ -130,21 +130,27 @@ def register_family(
     fam = Family(key, rx, factory, description, default_max_order, max_order)
     if fam.ordered and (default_max_order is None or default_max_order < 1):
         raise ValueError(f"family {key!r} of orders needs `default_max_order` >= 1.")
-    for name in fam.names():
-        if not rx.fullmatch(name):
-            raise ValueError(f"`pattern` {pattern!r} does not match {name!r}, a name of {key!r}.")
+    unmatched = [n for n in fam.names() if not rx.fullmatch(n)]
+    if unmatched:
+        raise ValueError(
+            f"`pattern` {pattern!r} does not match {unmatched[0]!r}, a name of {key!r}."
+        )
     for other in _FAMILIES.values():
-        if other.key == key:
-            continue
-        for a, b in ((fam, other), (other, fam)):
-            taken = [n for n in a.names() if b.pattern.fullmatch(n)]
-            if taken:
-                raise ValueError(
-                    f"name {taken[0]!r} of {a.key!r} is already taken by {b.key!r}: the "
-                    f"families {key!r} and {other.key!r} would share names."
-                )
+        if other.key != key:
+            _check_disjoint(fam, other)
     _FAMILIES[key] = fam
     return fam
+
+
+def _check_disjoint(a: Family, b: Family) -> None:
+    """Raise if a name of one family is matched by the other's pattern."""
+    for x, y in ((a, b), (b, a)):
+        taken = [n for n in x.names() if y.pattern.fullmatch(n)]
+        if taken:
+            raise ValueError(
+                f"name {taken[0]!r} of {x.key!r} is already taken by {y.key!r}: the families "
+                f"{a.key!r} and {b.key!r} would share names."
+            )
 
 
 def families() -> tuple[Family, ...]:
