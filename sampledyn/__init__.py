@@ -16,13 +16,13 @@ import sys
 import types
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from ._version import __version__ as __version__
 
 # Public name -> module that defines it (None: the name is a subpackage or module).
 _EXPORTS: dict[str, str | None] = {
     "AdamsBashforth": ".methods",
     "Certificate": "._trajectory",
-    "EstimatedAdamsBashforth": ".methods._estimated",
+    "EstimatedAdamsBashforth": ".estimate",
     "EstimationResult": ".estimate",
     "Euler": ".methods",
     "RungeKutta": ".methods",
@@ -57,6 +57,7 @@ if TYPE_CHECKING:
     from ._trajectory import Trajectory as Trajectory
     from .errors import error_norm as error_norm
     from .errors import local_errors as local_errors
+    from .estimate import EstimatedAdamsBashforth as EstimatedAdamsBashforth
     from .estimate import EstimationResult as EstimationResult
     from .estimate import estimate as estimate
     from .estimate import estimate_and_predict as estimate_and_predict
@@ -66,7 +67,6 @@ if TYPE_CHECKING:
     from .methods import Tustin as Tustin
     from .methods import available_methods as available_methods
     from .methods import get_method as get_method
-    from .methods._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
     from .noise import add_noise as add_noise
     from .predict import predict as predict
     from .sensitivity import advise as advise
@@ -77,6 +77,10 @@ def __getattr__(name: str) -> Any:
     if name not in _EXPORTS:
         raise AttributeError(f"module 'sampledyn' has no attribute {name!r}")
     source = _EXPORTS[name]
+    if name == "methods" or source == ".methods":
+        # The estimation layer registers its rules (Ee, ABe<s>) into the method
+        # registry; whoever reaches the registry through the package sees them.
+        importlib.import_module(".estimate", __name__)
     if source is None:
         value: Any = importlib.import_module(f".{name}", __name__)
     else:

@@ -23,8 +23,8 @@ from numba import njit, types
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from ._trajectory import Certificate, Trajectory
-from .models._base import RHS_TYPE, RO1, RO2, readonly
-from .models._base import index_switch as _index_switch
+from .models import RHS_TYPE, RO1, RO2, readonly
+from .models import index_switch as _index_switch
 from .signals import Signal
 
 __all__ = ["IntegrationError", "simulate"]

@@ -1,3 +1,4 @@
+import warnings
 from fractions import Fraction
 
 import numpy as np
@@ -89,7 +90,8 @@ def test_registry_names_and_euler_is_ab1():
         assert m.name == name
     assert sd.get_method("E").coefficients == sd.AdamsBashforth(1).coefficients
     assert isinstance(sd.Euler(), sd.AdamsBashforth)
-    assert sd.get_method("AB9").order == 9
+    with pytest.warns(UserWarning, match=r"AB9: .*\[-0\.0127, 0\]"):
+        assert sd.get_method("AB9").order == 9
 
 
 def test_registry_unknown_name_lists_valid():
@@ -113,3 +115,60 @@ def test_ab_order_must_be_int():
 def test_weights_are_float_copy_of_coefficients():
     w = sd.AdamsBashforth(5).weights
     assert np.allclose(w, [float(a) for a in ab_coefficients(5)])
+
+
+def _lagrange_ab(s):
+    """AB coefficients the textbook way, independent of the library: integrals over
+    [0, 1] of the Lagrange basis polynomials on the nodes 0, -1, ..., -(s-1)."""
+    out = []
+    for i in range(s):
+        poly = [F(1)]  # coefficients, lowest degree first
+        for j in range(s):
+            if j != i:  # times (tau + j) / (j - i)
+                nxt = [F(0)] * (len(poly) + 1)
+                for k, c in enumerate(poly):
+                    nxt[k] += c * j / (j - i)
+                    nxt[k + 1] += c / (j - i)
+                poly = nxt
+        out.append(sum(c / (k + 1) for k, c in enumerate(poly)))
+    return tuple(out)
+
+
+@pytest.mark.parametrize("s", range(1, 13))
+def test_ab_coefficients_equal_lagrange_integrals(s):
+    assert ab_coefficients(s) == _lagrange_ab(s)
+
+
+def _max_root(s, z):
+    a = [float(c) for c in ab_coefficients(s)]
+    # zeta^s - zeta^{s-1} - z sum_i a_i zeta^{s-1-i}
+    p = np.zeros(s + 1)
+    p[0], p[1] = 1.0, -1.0
+    p[1:] -= z * np.array(a)
+    return np.abs(np.roots(p)).max()
+
+
+@pytest.mark.parametrize("s", range(1, 10))
+def test_ab_real_stability_interval_is_two_over_a_s(s):
+    # The boundary of the stability region on the negative real axis, found from the
+    # roots of the characteristic polynomial by bisection, is -2 / a_s.
+    beta = sd.methods.ab_stability_interval(s)
+    assert beta == pytest.approx(2.0 / float(sum(abs(a) for a in ab_coefficients(s))))
+    lo, hi = 0.0, 3.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        stable = all(_max_root(s, -x) <= 1 + 1e-12 for x in np.linspace(mid / 50, mid, 50))
+        lo, hi = (mid, hi) if stable else (lo, mid)
+    assert lo == pytest.approx(beta, rel=1e-6)
+
+
+def test_ab_warns_past_the_collapse_of_its_stability_interval():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sd.AdamsBashforth(6)  # interval 0.0877 >= 0.05: quiet
+        sd.get_method("AB6")
+    with pytest.warns(UserWarning, match=r"AB7: .*\[-0\.0465, 0\].*\| = 43;.* 21 times") as rec:
+        sd.AdamsBashforth(7)
+    assert rec[0].filename == __file__  # points at the caller
+    with pytest.warns(UserWarning, match=r"AB20: .*\| = 2\.589e\+05;"):
+        sd.AdamsBashforth(20)

@@ -11,6 +11,7 @@ import pytest
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
+import sampledyn._version
 from sampledyn.cli import EXIT_FILE, main
 from sampledyn.experiments.sweep import SweepConfigError, load_config, plan_study, run_sweep
 from sampledyn.experiments.sweep._compute import compute_chunk, simulate_trajectory
@@ -63,7 +64,7 @@ def test_keys_change_with_version_norm_and_input(tmp_path, monkeypatch):
     p = write_sweep(tmp_path / "c.toml")
     p.write_text(p.read_text().replace("seed = 3", "seed = 4"))  # another input realisation
     assert base.isdisjoint(c.key for c in plan_study(load_config(p)).cells)
-    monkeypatch.setattr(sd, "__version__", "999.0")
+    monkeypatch.setattr(sampledyn._version, "__version__", "999.0")
     new_version = plan_study(load_config(write_sweep(tmp_path / "d.toml")))
     assert base.isdisjoint(c.key for c in new_version.cells)
     assert json.loads(new_version.cells[0].config)["version"] == "999.0"

@@ -33,7 +33,7 @@ _QUICK = {"methods"}
 
 
 def _version() -> str:
-    from .. import __version__
+    from .._version import __version__
 
     return __version__
 

@@ -9,16 +9,26 @@ __all__ = ["add_parser"]
 
 
 def _cmd_methods(args: argparse.Namespace) -> int:
-    from ..methods import available_methods, describe_methods, get_method
+    from ..methods import available_methods, families, get_method
 
     print("Method families:")
-    for key, desc in describe_methods().items():
-        print(f"  {key:8s} {desc}")
-    print("\nBuilt-in fixed rules:")
+    for fam in families():
+        orders = ""
+        if fam.ordered:
+            top = "any s" if fam.max_order is None else f"s <= {fam.max_order}"
+            orders = f" (listed: s = 1..{fam.default_max_order}; {top})"
+        print(f"  {fam.key:8s} {fam.description}{orders}")
+    print("\nRegistered rules (a_s: first-order noise gain c in G = c h L; C: error constant):")
     for name in available_methods():
         m = get_method(name)
-        extra = f"  a_s = {m.a_s}" if hasattr(m, "a_s") else ""
-        print(f"  {name:5s} order {m.order}{extra}")
+        gain = "-" if m.first_order_gain is None else str(m.first_order_gain)
+        const = "-" if m.error_constant is None else str(m.error_constant)
+        where = "between samples" if m.intersample else "at samples"
+        est = ", estimated" if m.estimates_params else ""
+        print(
+            f"  {name:6s} order {m.order}  history {m.history}  a_s = {gain:7s} "
+            f"C = {const:12s} f {where}{est}"
+        )
     return 0
 
 

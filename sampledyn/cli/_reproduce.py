@@ -58,7 +58,7 @@ def _check_methods(methods: tuple[str, ...]) -> None:
 
 def _auv_figure(args: argparse.Namespace) -> int:
     from ..errors import ERROR_NORMS
-    from ..experiments import FIG2_METHODS, FIG3_METHODS, AUVStudy
+    from ..experiments import AUVStudy, fig2_methods, fig3_methods
 
     which = args.figure
     if args.h is not None and len(args.h) != 1:
@@ -69,7 +69,7 @@ def _auv_figure(args: argparse.Namespace) -> int:
     norm = args.norm or "rms"
     if norm not in ERROR_NORMS:  # pragma: no cover - argparse's choices come from it
         refuse(f"`--norm` must be one of {', '.join(ERROR_NORMS)}, got {norm!r}.")
-    methods = names(args.methods) or (FIG2_METHODS if which == "fig2" else FIG3_METHODS)
+    methods = names(args.methods) or (fig2_methods() if which == "fig2" else fig3_methods())
     _check_methods(methods)
     with option("--h" if args.h else "--T"):
         study = AUVStudy(
@@ -196,9 +196,10 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
             "Regenerate the results of the paper 'On the Adequacy of Adams-Bashforth "
             "Sampled-Data Models for Characterizing Complex Underwater-Vehicle Dynamics "
             "with Noisy Measurements' (equation numbers refer to it). "
-            "fig2: local-error norms of AB_s (s = 1..6) and of the estimated Ee, ABe_s "
-            "against s, one curve per h_u/h, on the AUV-like system (9)-(10). fig3: the "
-            "same for E, T, RK_s (s = 1..4) and Ee. "
+            "fig2: local-error norms of the multistep rules of the registry (AB_s, ABu_s, "
+            "ABj_s and the estimated ABe_s, s = 1..6) against s, one curve per h_u/h, on "
+            "the AUV-like system (9)-(10). fig3: the "
+            "same for the one-step rules (E, T, RK_s for s = 1..4, Ee). "
             "fig7: the ROV study of section 6 on the BlueROV2 Heavy (T = 5000 s, errors "
             "from 1000 s, h in {0.1, 0.5}, the 12 noise pairs, AB1-AB4 and RK4, Monte Carlo "
             "over --seeds, with a roll-pitch hold unless --open-loop), printed in the "

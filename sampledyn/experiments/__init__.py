@@ -1,21 +1,35 @@
 """The paper's case studies as data and functions (Figs. 2-3, Fig. 7)."""
 
-from ._auv import FIG2_METHODS as FIG2_METHODS
-from ._auv import FIG3_METHODS as FIG3_METHODS
 from ._auv import AUVStudy as AUVStudy
+from ._auv import away_from_jumps as away_from_jumps
+from ._auv import away_from_kinks as away_from_kinks
+from ._auv import fig2_methods as fig2_methods
+from ._auv import fig3_methods as fig3_methods
 from ._auv import run_auv_study as run_auv_study
+from ._paper_fig7 import FIG7_NOISE_PAIRS as FIG7_NOISE_PAIRS
+from ._paper_fig7 import PAPER_FIG7 as PAPER_FIG7
 from ._rov import NORMS as FIG7_NORMS
 from ._rov import ROVStudy as ROVStudy
+from ._rov import fig7_vehicle as fig7_vehicle
+from ._rov import motion_summary as motion_summary
 from ._rov import run_rov_study as run_rov_study
+from ._rov import summarize as summarize
 from ._rov import summarize as summarize_rov
 
 __all__ = [
-    "FIG2_METHODS",
-    "FIG3_METHODS",
+    "FIG7_NOISE_PAIRS",
     "FIG7_NORMS",
+    "PAPER_FIG7",
     "AUVStudy",
     "ROVStudy",
+    "away_from_jumps",
+    "away_from_kinks",
+    "fig2_methods",
+    "fig3_methods",
+    "fig7_vehicle",
+    "motion_summary",
     "run_auv_study",
     "run_rov_study",
+    "summarize",
     "summarize_rov",
 ]

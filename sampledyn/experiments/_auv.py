@@ -14,17 +14,32 @@ from typing import Any
 import numpy as np
 
 from ..errors import ERROR_NORMS, error_norm, error_norms, local_errors
+from ..methods import families, get_method
 from ..models import AUVLike
 from ..predict import predict
 from ..signals import Multilevel
 from ..simulate import simulate
 
-__all__ = ["AUVStudy", "run_auv_study"]
+__all__ = ["AUVStudy", "fig2_methods", "fig3_methods", "run_auv_study"]
 
-FIG2_METHODS = (
-    tuple(f"AB{s}" for s in range(1, 7)) + ("Ee",) + tuple(f"ABe{s}" for s in range(2, 7))
-)
-FIG3_METHODS = ("E", "T", "RK1", "RK2", "RK3", "RK4", "Ee")
+
+def _multistep(fam: Any) -> bool:
+    """A family of orders with a member that uses more than one past sample."""
+    return fam.ordered and any(get_method(n).history > 1 for n in fam.names())
+
+
+def fig2_methods() -> tuple[str, ...]:
+    """Fig. 2's rules: every registered multistep family (AB_s, ABu_s, ABe_s, ...),
+    orders 1 to the family's default largest one, in registration order."""
+    return tuple(n for fam in families() if _multistep(fam) for n in fam.names())
+
+
+def fig3_methods() -> tuple[str, ...]:
+    """Fig. 3's rules: every registered single rule (E, T, Ee, ...) and every one-step
+    family of orders (RK_s), in registration order."""
+    return tuple(n for fam in families() if not _multistep(fam) for n in fam.names())
+
+
 # Samples counted as "away from input jumps" have no jump in the last 7 samples, which
 # covers the history of AB6 plus the interval being predicted.
 SMOOTH_HISTORY = 7
@@ -37,7 +52,7 @@ class AUVStudy:
     Attributes
     ----------
     methods : tuple of str
-        Registry names.
+        Registry names (default :func:`fig2_methods`).
     hold_ratios : tuple of int
         h_u / h values, one curve each.
     h : float
@@ -53,7 +68,7 @@ class AUVStudy:
         Initial state (x, y).
     """
 
-    methods: tuple[str, ...] = FIG2_METHODS
+    methods: tuple[str, ...] = field(default_factory=fig2_methods)
     hold_ratios: tuple[int, ...] = (1, 2, 5, 10, 20, 50, 100)
     h: float = 0.01
     T: float = 200.0
@@ -132,8 +147,6 @@ def run_auv_study(study: AUVStudy = AUVStudy(), *, progress: bool = False) -> li
     per-interval flow error of the samples) and ``tau_min`` (fastest local time
     constant, s).
     """
-    from ..methods import get_method
-
     rows: list[dict[str, Any]] = []
     cells = [(r, m) for r in study.hold_ratios for m in study.methods]
     bar = None

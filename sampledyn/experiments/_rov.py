@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import error_norms, local_errors
-from ..methods import AdamsBashforth, ab_filter, get_method
+from ..methods import get_method
 from ..noise import add_noise
 from ..signals import fig6_thrusters
 from ..simulate import simulate
@@ -91,10 +91,7 @@ class ROVStudy:
 
 def fig7_vehicle(vehicle: Any, buoyancy_pct: float = 1.0) -> Any:
     """The vehicle with its displaced volume set so that B = (1 + pct/100) W."""
-    if not math.isfinite(buoyancy_pct) or buoyancy_pct <= -100:
-        raise ValueError(f"`buoyancy_pct` must be > -100, got {buoyancy_pct}.")
-    volume = (1.0 + buoyancy_pct / 100.0) * vehicle.mass / vehicle.rho
-    return vehicle.with_params(volume=volume)
+    return vehicle.with_buoyancy(buoyancy_pct)
 
 
 def _cell_rows(
@@ -109,19 +106,19 @@ def _cell_rows(
 ) -> list[dict[str, Any]]:
     """Error norms of every method on one measured trajectory.
 
-    AB_s predict with ``model`` and the measured (applied) input. Other rules predict
-    with ``rk_model`` (default ``model``) fed with the input samples ``rk_u`` (default
-    the measured ones) and ``signal`` between samples.
+    Rules that use f at the samples only (AB_s) predict with ``model`` and the
+    measured (applied) input, f evaluated once and shared. Rules that evaluate f
+    between samples (RK_s, T) predict with ``rk_model`` (default ``model``) fed with
+    the input samples ``rk_u`` (default the measured ones) and ``signal`` between
+    samples.
     """
     rows = []
-    f = None
+    cache: dict[Any, Any] = {}
     n_eta = 6
     for name in methods:
         method = get_method(name)
-        if isinstance(method, AdamsBashforth):
-            if f is None:  # f once per sample, shared by every AB order
-                f = model.f(measured.t, measured.x, measured.u)
-            x_hat = ab_filter(measured.x, f, measured.h, method.weights)
+        if not method.intersample:
+            x_hat = method.predict(model, measured, cache=cache)
         else:
             data = measured if rk_u is None else measured.replace(u=rk_u)
             x_hat = method.predict(rk_model or model, data, signal)

@@ -24,7 +24,7 @@ _EXPORTS: dict[str, str] = {
     "evaluate_log": "._evaluate",
     "log_from_frame": "._read",
     "read_clock": "._time",
-    "read_log": "._read",
+    "read_log": "._open",
     "survey_input": "._synthetic",
     "synthetic_log": "._synthetic",
     "t200_rpm": "._t200",
@@ -36,11 +36,11 @@ __all__ = sorted(_EXPORTS)
 if TYPE_CHECKING:
     from ._evaluate import LogEvaluation as LogEvaluation
     from ._evaluate import evaluate_log as evaluate_log
+    from ._open import read_log as read_log
     from ._read import NAN_POLICIES as NAN_POLICIES
     from ._read import TIME_TOLERANCE as TIME_TOLERANCE
     from ._read import LogData as LogData
     from ._read import log_from_frame as log_from_frame
-    from ._read import read_log as read_log
     from ._synthetic import survey_input as survey_input
     from ._synthetic import synthetic_log as synthetic_log
     from ._synthetic import write_synthetic_log as write_synthetic_log

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -11,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import error_norm, local_errors
-from ..estimate import EstimationResult, estimate_and_predict
+from ..estimate import EstimationResult
 from ..methods import get_method
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
@@ -19,8 +18,6 @@ from ._read import LogData
 from ._units import LogFormatError
 
 __all__ = ["LogEvaluation", "evaluate_log"]
-
-_ESTIMATED = re.compile(r"^(?:Ee|ABe(\d+))$")
 
 
 @dataclass(frozen=True)
@@ -210,7 +207,7 @@ def evaluate_log(
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
     _refuse_nonuniform(data)
     segments = data.segments
-    if len(segments) > 1 and any(_ESTIMATED.match(name) for name in methods):
+    if len(segments) > 1 and any(get_method(name).estimates_params for name in methods):
         raise LogFormatError(
             "estimate",
             f"{data.source}: estimation on a log split into {len(segments)} segments is not "
@@ -222,22 +219,17 @@ def evaluate_log(
         warnings.simplefilter("always")
         _warn_inputs_beyond_limits(model, data)
         for name in methods:
-            m_est = _ESTIMATED.match(name)
-            if m_est:
-                s = int(m_est.group(1) or 1)
-                x_hat, estimation = estimate_and_predict(model, data.traj, f"AB{s}", after=after)
-                history, order = s, s
+            method: Any = get_method(name)
+            if method.estimates_params:
+                x_hat, estimation = method.estimate_and_predict(model, data.traj, after=after)
             else:
-                method = get_method(name)
                 x_hat = np.full(data.traj.x.shape, np.nan)
                 for a, b in segments:
                     if b - a >= 2:
                         x_hat[a:b] = predict(method, model, _segment(data, a, b))
-                history = int(getattr(method, "history", 1))
-                order = int(method.order)
             err = local_errors(x_hat, data.traj)
-            row = {"method": name, "order": order}
-            row.update(_norms(err, data, _mask(data.valid, history), norm, after))
+            row = {"method": name, "order": int(method.order)}
+            row.update(_norms(err, data, _mask(data.valid, method.history), norm, after))
             rows.append(row)
     msgs = tuple(dict.fromkeys(str(w.message) for w in caught))
     return LogEvaluation(rows, estimation, msgs)

@@ -38,7 +38,6 @@ Every choice made is written to ``LogData.notes`` (printed by ``sampledyn evalua
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -50,7 +49,7 @@ from ._mapping import load_toml, table_mapping
 from ._time import Sampling, check_policy, read_clock, sampling
 from ._units import LogFormatError, conversion_factor, split_header
 
-__all__ = ["NAN_POLICIES", "TIME_TOLERANCE", "LogData", "log_from_frame", "read_log"]
+__all__ = ["NAN_POLICIES", "TIME_TOLERANCE", "LogData", "log_from_frame", "read_table"]
 
 NAN_POLICIES = ("error", "drop", "interpolate")
 
@@ -320,7 +319,7 @@ def log_from_frame(
     return LogData(traj, valid, source, smp.jitter, tuple(out_notes), smp, rows)
 
 
-def _table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
+def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
     """A CSV or Parquet file as a DataFrame; a CSV's time column is read as text, so
     that decimal stamps (1700000000.123456789) are read exactly."""
     import pandas as pd
@@ -336,78 +335,3 @@ def _table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
         if isinstance(exc, LogFormatError):
             raise
         raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
-
-
-def read_log(
-    path: str | os.PathLike[str],
-    model: Any,
-    *,
-    mapping: Any = None,
-    nan: str = "error",
-    time_tolerance: float = TIME_TOLERANCE,
-    unwrap: bool = True,
-    gaps: str = "refuse",
-    max_missing: int = 1,
-) -> LogData:
-    """Read a log of ``model`` and validate it (module docstring).
-
-    Parameters
-    ----------
-    path : str or path
-        A table: ``.csv`` (any other suffix is read as CSV too) or ``.parquet``/``.pq``;
-        a ROS bag: a ROS 2 bag directory (``metadata.yaml``), a ``.db3``/``.mcap`` file,
-        or a ROS 1 ``.bag`` (extra ``sampledyn[ros]``); an ArduSub DataFlash log
-        ``.bin`` (extra ``sampledyn[ardusub]``). Bags and DataFlash logs need a
-        ``mapping`` (see ``docs/logs.md``).
-    model : Model
-        The vehicle the log is of; its state and input names and units are expected.
-    mapping : path or mapping, optional
-        Column names and units for tables whose header does not follow ``name[unit]``;
-        topics and frames for bags; messages and the servo-to-thruster curve for
-        DataFlash logs.
-    nan : {"error", "drop", "interpolate"}
-    time_tolerance : float
-        Largest accepted deviation of a time step from a whole number of periods, as a
-        fraction of h (default 0.25); a step farther off is an error.
-    unwrap : bool
-        Unwrap angles (default True).
-    gaps : {"refuse", "bridge", "split"}
-        Dropped records (a step of m > 1 periods): refuse (default), bridge gaps of up
-        to ``max_missing`` records (the samples keep their logged times), or split the
-        log into segments evaluated on their own. Nothing is ever interpolated.
-    max_missing : int
-        Longest run of missing records ``gaps="bridge"`` accepts (default 1).
-
-    Raises
-    ------
-    LogFormatError (a ValueError)
-        naming the column, option or the first bad row.
-    FileNotFoundError
-        if there is no file at ``path``.
-    """
-    path = Path(path)
-    options: dict[str, Any] = {
-        "nan": nan,
-        "time_tolerance": time_tolerance,
-        "unwrap": unwrap,
-        "gaps": gaps,
-        "max_missing": max_missing,
-    }
-    if path.is_dir() or path.suffix.lower() in (".bag", ".db3", ".mcap"):
-        from ._ros import read_bag
-
-        return read_bag(path, model, mapping=mapping, **options)
-    if not path.is_file():
-        raise FileNotFoundError(f"no log file {str(path)!r}.")
-    if path.suffix.lower() in (".bin", ".log") and _is_dataflash(path):
-        from ._ardusub import read_dataflash
-
-        return read_dataflash(path, model, mapping=mapping, **options)
-    frame, csv = _table(path, model, mapping)
-    return log_from_frame(frame, model, source=path.name, mapping=mapping, csv=csv, **options)
-
-
-def _is_dataflash(path: Path) -> bool:
-    """A binary DataFlash log starts with a message header 0xA3 0x95."""
-    with path.open("rb") as fh:
-        return fh.read(2) == b"\xa3\x95"

@@ -1,34 +1,75 @@
-"""Adams-Bashforth rules of any order s, coefficients from Lagrange interpolation.
+"""Adams-Bashforth rules of any order s, with exact coefficients.
 
     x_{n+1} = x_n + h * sum_{i=0}^{s-1} a_i f(t_{n-i}, x_{n-i}, u_{n-i})
 
-a_i = integral over tau in [0, 1] of the Lagrange basis polynomial of node -i on the
-nodes 0, -1, ..., -(s-1) (time in units of h). Coefficients are exact ``Fraction``s,
-newest first.
+In backward-difference form (Hairer, Norsett & Wanner, Solving ODEs I, Sec. III.1)
+``x_{n+1} = x_n + h sum_{j<s} gamma_j nabla^j f_n`` with
+
+    gamma_0 = 1,   gamma_m + gamma_{m-1}/2 + ... + gamma_0/(m+1) = 1,
+
+so ``a_i = (-1)^i sum_{j=i}^{s-1} binom(j, i) gamma_j`` (the integrals over [0, 1] of the
+Lagrange basis polynomials on the nodes 0, -1, ..., -(s-1), in units of h), and the
+local error is ``gamma_s h^{s+1} x^{(s+1)} + O(h^{s+2})``: gamma_s is the error
+constant. Coefficients are exact ``Fraction``s, newest first.
+
+Stability. The coefficients alternate in sign, so on the negative real axis the root
+of ``zeta^s - zeta^{s-1} - z sum_i a_i zeta^{s-1-i}`` that leaves the unit circle first
+does so at zeta = -1, where ``z = -2 / a_s`` with ``a_s = sum_i |a_i|``: the real
+stability interval of AB_s is ``[-2/a_s, 0]`` (2, 1, 0.545, 0.3, 0.163, 0.0877 for
+s = 1..6, then about halving with every order; cf. the stability domains in Hairer &
+Wanner, Solving ODEs II, Sec. V.1). The same a_s is the rule's noise gain.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import lru_cache
-from typing import Any
+from math import comb
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
 
 from .._trajectory import Trajectory
+from ._base import FixedRule, check_gain_args, sample_f, sample_jacobian, uniform_step
+from ._registry import register_family
 
-__all__ = ["AdamsBashforth", "Euler", "ab_coefficients", "ab_filter"]
+__all__ = [
+    "STABILITY_INTERVAL_MIN",
+    "AdamsBashforth",
+    "AdamsRule",
+    "Euler",
+    "ab_coefficients",
+    "ab_error_constant",
+    "ab_filter",
+    "ab_stability_interval",
+    "lagged_jacobians",
+    "warn_if_unstable",
+]
+
+# Shortest real stability interval [-2/a_s, 0] accepted without a warning: h |lambda|
+# = 0.05 is a sampling period of 1/20 of the fastest time constant. AB6 (0.0877) is
+# the last order above it; AB7 has 0.0465.
+STABILITY_INTERVAL_MIN = 0.05
 
 
-def _poly_mul_linear(poly: list[Fraction], root_shift: int, denom: int) -> list[Fraction]:
-    """poly(tau) * (tau + root_shift) / denom, coefficients lowest degree first."""
-    out = [Fraction(0)] * (len(poly) + 1)
-    for k, c in enumerate(poly):
-        out[k] += c * root_shift / denom
-        out[k + 1] += c / denom
-    return out
+def _check_order(s: Any) -> int:
+    if isinstance(s, bool) or not isinstance(s, int | np.integer):
+        raise TypeError(f"order `s` must be an int, got {type(s).__name__}.")
+    if s < 1:
+        raise ValueError(f"order `s` must be >= 1, got {s}.")
+    return int(s)
+
+
+@lru_cache(maxsize=64)
+def _gammas(s: int) -> tuple[Fraction, ...]:
+    """gamma_0, ..., gamma_s of the backward-difference form (see the module docstring)."""
+    g: list[Fraction] = []
+    for m in range(s + 1):
+        g.append(1 - sum((g[m - 1 - k] / (k + 2) for k in range(m)), Fraction(0)))
+    return tuple(g)
 
 
 @lru_cache(maxsize=64)
@@ -38,18 +79,43 @@ def ab_coefficients(s: int) -> tuple[Fraction, ...]:
     >>> ab_coefficients(2)
     (Fraction(3, 2), Fraction(-1, 2))
     """
-    if isinstance(s, bool) or not isinstance(s, int | np.integer):
-        raise TypeError(f"order `s` must be an int, got {type(s).__name__}.")
-    if s < 1:
-        raise ValueError(f"order `s` must be >= 1, got {s}.")
-    coeffs = []
-    for i in range(s):
-        poly = [Fraction(1)]
-        for j in range(s):
-            if j != i:
-                poly = _poly_mul_linear(poly, j, j - i)
-        coeffs.append(sum((c / (k + 1) for k, c in enumerate(poly)), Fraction(0)))
-    return tuple(coeffs)
+    s = _check_order(s)
+    g = _gammas(s)
+    return tuple(
+        (-1) ** i * sum((comb(j, i) * g[j] for j in range(i, s)), Fraction(0)) for i in range(s)
+    )
+
+
+def ab_error_constant(s: int) -> Fraction:
+    """Error constant gamma_s of AB_s: local error ``gamma_s h^{s+1} x^{(s+1)} + ...``.
+
+    (1/2, 5/12, 3/8, 251/720, 95/288, 19087/60480 for s = 1..6.)
+    """
+    return _gammas(_check_order(s))[s]
+
+
+def ab_stability_interval(s: int) -> float:
+    """Length 2 / a_s of the real stability interval [-2/a_s, 0] of AB_s (h lambda units)."""
+    return 2.0 / float(sum((abs(a) for a in ab_coefficients(s)), Fraction(0)))
+
+
+def warn_if_unstable(s: int, name: str, stacklevel: int = 4) -> None:
+    """Warn when the real stability interval of AB_s is below STABILITY_INTERVAL_MIN."""
+    beta = ab_stability_interval(s)
+    if beta >= STABILITY_INTERVAL_MIN:
+        return
+    a_s = 2.0 / beta
+    warnings.warn(
+        f"{name}: Adams-Bashforth of order {s} is stable on the negative real axis only "
+        f"for h*lambda in [-{beta:.3g}, 0] (= -2/a_s, a_s = sum|a_i| = {a_s:.4g}; Hairer & "
+        f"Wanner, Solving ODEs II, Sec. V.1): below {STABILITY_INTERVAL_MIN}, i.e. any mode "
+        f"sampled fewer than {1.0 / beta:.0f} times per time constant makes it unstable as a "
+        f"discrete-time model, and one-step predictions amplify noise and input jumps by "
+        f"a_s. Orders above 6 fall below that limit (the interval halves with every "
+        f"order); use s <= 6.",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
 
 
 def ab_filter(x: np.ndarray, f: np.ndarray, h: float, weights: np.ndarray) -> np.ndarray:
@@ -104,19 +170,33 @@ def _ab_fir(x, f, h, w, out):  # pragma: no cover - compiled
                 o[j] += c * fr[j]
 
 
-@dataclass(frozen=True)
-class AdamsBashforth:
-    """Adams-Bashforth rule of order s (explicit, s-step).
+def lagged_jacobians(
+    lagged: list[np.ndarray], h: float, weights: np.ndarray, n: int, nx: int
+) -> np.ndarray:
+    """``phi[k, i] = [i == 0] I + h w_i J_i[k - s]`` for rows k >= s, NaN above.
 
-    Attributes
-    ----------
-    order : int
-        s >= 1; AB1 is Euler.
-    coefficients : tuple of Fraction
-        a_0..a_{s-1}, newest first; they sum to 1.
-    a_s : Fraction
-        sum of |a_i|, the noise gain of eqs. (24)-(25).
+    ``lagged[i]`` (shape (N - s, nx, nx)) is df/dx at the point the rule evaluates
+    for history lag i of the predictions of rows s..N-1 (empty for N <= s).
+    Shape (N, s, nx, nx).
     """
+    s = len(weights)
+    phi = np.full((n, s, nx, nx), np.nan)
+    if n <= s:
+        return phi
+    for i in range(s):
+        phi[s:, i] = (h * weights[i]) * lagged[i]
+    phi[s:, 0] += np.eye(nx)
+    return phi
+
+
+@dataclass(frozen=True)
+class AdamsRule(FixedRule):
+    """What the rules that weight an f-history with the AB_s coefficients share (AB_s,
+    ABu_s, ABj_s): order s, history s, coefficients, noise gain a_s, error constant
+    gamma_s, the stability warning past s = 6. Subclasses set ``FAMILY`` (also the
+    prefix of their default name) and say how the f-history is made."""
+
+    FAMILY: ClassVar[str] = "AB"
 
     order: int
     name: str = ""
@@ -125,10 +205,26 @@ class AdamsBashforth:
     def __post_init__(self) -> None:
         object.__setattr__(self, "coefficients", ab_coefficients(self.order))
         if not self.name:
-            object.__setattr__(self, "name", f"AB{self.order}")
+            object.__setattr__(self, "name", f"{self.FAMILY}{self.order}")
+        warn_if_unstable(self.order, self.name)
+
+    @property
+    def family(self) -> str:
+        return self.FAMILY
+
+    @property
+    def history(self) -> int:
+        """Number of past samples the rule needs: s."""
+        return self.order
+
+    @property
+    def intersample(self) -> bool:
+        """False: f only at the sample times, the input held over the interval."""
+        return False
 
     @property
     def a_s(self) -> Fraction:
+        """sum of |a_i|, the noise gain of eqs. (24)-(25)."""
         return sum((abs(a) for a in self.coefficients), Fraction(0))
 
     @property
@@ -137,19 +233,97 @@ class AdamsBashforth:
         return np.array([float(a) for a in self.coefficients])
 
     @property
-    def history(self) -> int:
-        """Number of past samples the rule needs."""
-        return self.order
+    def first_order_gain(self) -> Fraction:
+        """a_s = sum |a_i|: the noise gain is ``h a_s L`` (eqs. (11)-(12), (24)-(25))."""
+        return self.a_s
 
-    def predict(self, model: Any, data: Trajectory, signal: Any = None) -> np.ndarray:
-        """One-step-ahead predictions; f is evaluated once per sample.
+    @property
+    def error_constant(self) -> Fraction:
+        """gamma_s: local error ``gamma_s h^{s+1} x^{(s+1)}`` where the history is smooth."""
+        return ab_error_constant(self.order)
+
+    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+        """``G = h a_s L`` (eqs. (11)-(12), (24)-(25); the printed (11) lacks the factor h,
+        which the dimensions require)."""
+        h, L = check_gain_args(h, lipschitz)
+        return h * float(self.a_s) * L
+
+
+@dataclass(frozen=True)
+class AdamsBashforth(AdamsRule):
+    """Adams-Bashforth rule of order s (explicit, s-step), family "AB" (Euler is AB1).
+
+    Attributes
+    ----------
+    order : int
+        s >= 1; AB1 is Euler. Orders above 6 warn (stability interval below 0.05,
+        see the module docstring).
+    coefficients : tuple of Fraction
+        a_0..a_{s-1}, newest first; they sum to 1.
+    a_s : Fraction
+        sum of |a_i|, the noise gain of eqs. (24)-(25).
+    """
+
+    @property
+    def sample_weights(self) -> np.ndarray:
+        return self.weights
+
+    def predict(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """One-step-ahead predictions, shape (N, nx), NaN in the first s rows; f is
+        evaluated once per sample (shared through ``cache``).
 
         ``signal`` is not used: AB needs no input between samples.
         """
-        f = model.f(data.t, data.x, data.u)
-        return ab_filter(data.x, f, data.h, self.weights)
+        h = uniform_step(data, self.name)
+        return ab_filter(data.x, sample_f(model, data, cache), h, self.weights)
+
+    def prediction_jacobians(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """``Phi_{k,0} = I + h a_0 F(x_{k-1})``, ``Phi_{k,i} = h a_i F(x_{k-1-i})``,
+        shape (N, s, nx, nx) (F = df/dx at the samples)."""
+        h = uniform_step(data, self.name)
+        n, s = data.n_samples, self.order
+        if n <= s:
+            return lagged_jacobians([], h, self.weights, n, data.nx)
+        jac = sample_jacobian(model, data, cache)
+        lagged = [jac[s - 1 - i : n - 1 - i] for i in range(s)]
+        return lagged_jacobians(lagged, h, self.weights, n, data.nx)
+
+    def truncation_differences(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """``nabla^s f`` along the samples, shape (N - s, nx)."""
+        return np.diff(sample_f(model, data, cache), n=self.order, axis=0)
 
 
 def Euler() -> AdamsBashforth:  # noqa: N802 - reads as a class in user code
     """Forward Euler, ``x_{n+1} = x_n + h f(t_n, x_n, u_n)``: the rule AB1 (= RK1)."""
     return AdamsBashforth(1, name="E")
+
+
+register_family("E", r"E", Euler, "Euler (= AB1 = RK1)")
+register_family(
+    "AB<s>",
+    r"AB(\d+)",
+    AdamsBashforth,
+    "Adams-Bashforth, s >= 1 (s > 6 warns: stability interval below 0.05)",
+    default_max_order=6,
+)

@@ -1,26 +1,233 @@
-"""What every sampled-data rule shares: the Method protocol and input handling."""
+"""What every sampled-data rule answers: the Method protocol, and the pieces the rules share.
+
+A *method* (a rule) turns a continuous-time model x' = f(t, x, u) and sampled data
+(t_n, x_n, u_n) into one-step-ahead predictions x^_{n+1}. Everything that depends on
+which rule it is lives in the rule's own class; every other layer asks the object:
+
+=====================  ================================================================
+``name``               registry name, e.g. "AB4", "RK2", "T", "ABu3", "ABe2"
+``family``             the rule family, e.g. "AB" (Euler is AB1), "ABu", "RK", "T", "ABe"
+``order``              s: local error O(h^{s+1}) on smooth data
+``history``            samples x_n, ..., x_{n-history+1} a prediction of x_{n+1} uses
+``label``              display text (tables, legends)
+``intersample``        True if f is evaluated between samples (RK stages with c > 0,
+                       Tustin's end point): the input inside the interval matters, from
+                       the ``signal`` given to ``predict``
+``estimates_params``   True if the rule fits the model's parameters on the data it
+                       predicts (Ee, ABe_s); such a rule has no noise bound and also
+                       offers ``estimate_and_predict(model, data, signal, *, after)``
+``sample_weights``     w with x^_{n+1} = x_n + h sum_i w_i f(t_{n-i}, x_{n-i}, u_{n-i})
+                       exactly, newest first (AB_s, Euler, RK1), else None
+``first_order_gain``   c of the noise gain G = c h L + O((h L)^2) (a_s = sum |a_i| for
+                       AB_s), None for estimated rules
+``error_constant``     C of the leading local error C h^{s+1} x^{(s+1)}, None where the
+                       rule has no single constant (RK_s) or is estimated
+``predict``            x^ for every sample, shape (N, nx), NaN rows where history lacks
+``noise_gain``         G(h, L) of the disturbed-error bound (24)-(25)
+``prediction_jacobians``  d x^_{n+1} / d x_{n-i}, i < history: the linearisation used
+                       by the path-based noise prediction
+``truncation_differences``  s-th backward differences of the derivative values the
+                       rule extrapolates (leading local error = C h times them), or None
+=====================  ================================================================
+
+Prediction takes the sample times ``data.t`` as they come: a rule decides itself
+whether it can work on a non-uniform grid. The fixed-step rules here cannot yet and
+raise (:func:`uniform_step`); variable-step versions belong in the rules, not in their
+callers. A ``linearize(model, z, u, h)`` for the discrete-time system view
+(``sampledyn.discretize``) will join the protocol with that layer;
+``prediction_jacobians`` is its state part on sampled data.
+
+The ``cache`` argument of ``predict`` and ``prediction_jacobians`` is a plain dict the
+caller may pass and keep for several rules on the same data: f (and df/dx) at the
+samples are then computed once and shared, e.g. by every AB order of a study.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from fractions import Fraction
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from .._trajectory import Trajectory
 
-__all__ = ["Method", "stage_inputs"]
+__all__ = [
+    "Method",
+    "check_gain_args",
+    "sample_f",
+    "sample_jacobian",
+    "stage_inputs",
+    "uniform_step",
+]
 
 
 @runtime_checkable
 class Method(Protocol):
-    """A one-step-ahead sampled-data rule."""
+    """A one-step-ahead sampled-data rule (see the module docstring for each member)."""
 
     name: str
     order: int
 
-    def predict(self, model: Any, data: Trajectory, signal: Any = None) -> np.ndarray:
-        """x_hat[n + 1] for every n, shape (N, nx); NaN where history is missing."""
+    @property
+    def family(self) -> str: ...
+
+    @property
+    def history(self) -> int: ...
+
+    @property
+    def label(self) -> str: ...
+
+    @property
+    def intersample(self) -> bool: ...
+
+    @property
+    def estimates_params(self) -> bool: ...
+
+    @property
+    def sample_weights(self) -> np.ndarray | None: ...
+
+    @property
+    def first_order_gain(self) -> Fraction | None: ...
+
+    @property
+    def error_constant(self) -> Fraction | None: ...
+
+    def predict(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """x_hat[k] predicts data.x[k] from samples before k, shape (N, nx); NaN rows
+        where the history is missing (the first ``history`` rows)."""
         ...
+
+    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+        """Noise gain G, shape (k, k), of the bound (24)-(25) for blockwise Lipschitz
+        constants ``lipschitz`` (k, k) at sampling period h (s)."""
+        ...
+
+    def prediction_jacobians(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """``phi[k, i] = d x_hat[k] / d x[k - 1 - i]``, shape (N, history, nx, nx);
+        NaN rows where ``predict`` has NaN rows."""
+        ...
+
+    def truncation_differences(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray | None:
+        """s-th backward differences of the extrapolated derivative values, one row
+        per prediction with a full difference stencil (possibly none); None without an
+        error constant."""
+        ...
+
+
+class FixedRule:
+    """Defaults of the rules with fixed parameters (everything but Ee / ABe_s)."""
+
+    name: str
+
+    @property
+    def label(self) -> str:
+        return self.name
+
+    @property
+    def estimates_params(self) -> bool:
+        return False
+
+    @property
+    def sample_weights(self) -> np.ndarray | None:
+        """None unless the rule is a fixed filter of f at the samples."""
+        return None
+
+    def truncation_differences(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray | None:
+        """None unless the rule's leading error is read off differences of f."""
+        return None
+
+
+# ---------------------------------------------------------------------------------
+# shared pieces
+
+
+def uniform_step(data: Trajectory, method: str) -> float:
+    """The sampling period of ``data``, after checking that ``data.t`` is uniform.
+
+    Raises
+    ------
+    ValueError
+        naming the step that deviates most from ``data.h`` (relative tolerance 1e-6),
+        for rules that predict on a uniform grid only.
+    """
+    h = float(data.h)
+    steps = np.diff(data.t)
+    if steps.size:
+        dev = np.abs(steps - h)
+        n = int(np.argmax(dev))
+        if dev[n] > 1e-6 * h:
+            raise ValueError(
+                f"the data are not uniformly sampled with h={h} s: t[{n + 1}] - t[{n}] = "
+                f"{steps[n]:g} s, {dev[n]:.3g} s from h (the largest deviation). {method} "
+                "predicts on a uniform grid only; resample the data to a uniform grid."
+            )
+    return h
+
+
+def _cached(
+    kind: str,
+    model: Any,
+    data: Trajectory,
+    cache: dict[Any, Any] | None,
+    compute: Callable[[], Any],
+) -> np.ndarray:
+    """``compute()`` once per (kind, model, data) in ``cache``; the value is read-only.
+
+    Entries keep the model and the data they belong to and are used only for those
+    very objects, so one cache may serve several data sets without mixing them up.
+    """
+    if cache is None:
+        return np.asarray(compute())
+    key = (kind, id(model), id(data))
+    hit = cache.get(key)
+    if hit is not None and hit[0] is model and hit[1] is data:
+        return hit[2]
+    value = np.array(compute(), dtype=float)
+    value.setflags(write=False)
+    cache[key] = (model, data, value)
+    return value
+
+
+def sample_f(model: Any, data: Trajectory, cache: dict[Any, Any] | None = None) -> np.ndarray:
+    """``f(t_n, x_n, u_n)`` for every sample, shape (N, nx), shared through ``cache``."""
+    return _cached("f", model, data, cache, lambda: model.f(data.t, data.x, data.u))
+
+
+def sample_jacobian(
+    model: Any, data: Trajectory, cache: dict[Any, Any] | None = None
+) -> np.ndarray:
+    """``df/dx (t_n, x_n, u_n)`` for every sample, shape (N, nx, nx), shared through
+    ``cache``."""
+    return _cached("jac", model, data, cache, lambda: model.jacobian(data.t, data.x, data.u))
 
 
 def stage_inputs(data: Trajectory, signal: Any, c: float) -> np.ndarray:
@@ -37,3 +244,33 @@ def stage_inputs(data: Trajectory, signal: Any, c: float) -> np.ndarray:
             f"`signal` gives inputs of shape {u.shape[1:]}, the data have nu = {data.nu}."
         )
     return u
+
+
+def check_gain_args(h: Any, lipschitz: Any) -> tuple[float, np.ndarray]:
+    """``(h, L)`` for :meth:`Method.noise_gain`, checked.
+
+    Raises
+    ------
+    ValueError
+        if ``lipschitz`` is not a finite non-negative square array, or h is not > 0.
+    """
+    L = np.asarray(lipschitz, dtype=float)
+    if (
+        L.ndim != 2
+        or L.shape[0] != L.shape[1]
+        or L.size == 0
+        or (L < 0).any()
+        or not np.isfinite(L).all()
+    ):
+        raise ValueError(
+            f"`lipschitz` must be a finite non-negative square array (2x2: eta and v "
+            f"blocks), got {lipschitz!r}."
+        )
+    if not (isinstance(h, int | float | np.floating | np.integer) and np.isfinite(h) and h > 0):
+        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
+    return float(h), L
+
+
+def nan_rows(data: Trajectory, shape: tuple[int, ...] = ()) -> np.ndarray:
+    """An (N, *shape) array of NaN, the frame every prediction is written into."""
+    return np.full((data.n_samples, *shape), np.nan)

@@ -1,36 +1,165 @@
-"""One registry of method names, iterated by tests, the CLI and the docs."""
+"""The one registry of method names, iterated by tests, the CLI, the figures and the docs.
+
+A *family* is registered once, by the module that defines it, with a name pattern and
+a factory: a single rule ("E", "T", "Ee": ``factory()``) or a family of orders
+("AB<s>": ``factory(s)``) with the largest order listed by default and, where the
+family ends, the largest order that exists. Every other layer gets names and method
+objects from here and asks the objects what they are; nobody parses names.
+"""
 
 from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-from ._adams import AdamsBashforth, Euler
-from ._runge_kutta import TABLEAUX, RungeKutta
-from ._tustin import Tustin
+if TYPE_CHECKING:
+    from ._base import Method
 
-__all__ = ["available_methods", "get_method", "register_family"]
-
-# family name -> (regex, factory, description). The regex's optional group is the order.
-_FAMILIES: dict[str, tuple[re.Pattern[str], Callable[..., Any], str]] = {}
-
-
-def register_family(key: str, pattern: str, factory: Callable[..., Any], description: str) -> None:
-    """Add a family of methods (e.g. ``"AB<s>"``); ``factory(order)`` or ``factory()``."""
-    _FAMILIES[key] = (re.compile(pattern), factory, description)
-
-
-register_family("E", r"E", lambda: Euler(), "Euler (= AB1 = RK1)")
-register_family("T", r"T", lambda: Tustin(), "Tustin, implicit trapezoid")
-register_family("AB<s>", r"AB(\d+)", lambda s: AdamsBashforth(s), "Adams-Bashforth, s >= 1")
-register_family(
-    "RK<s>", r"RK(\d+)", lambda s: RungeKutta(s), f"Runge-Kutta, s in {sorted(TABLEAUX)}"
-)
+__all__ = [
+    "Family",
+    "available_methods",
+    "describe_methods",
+    "families",
+    "get_method",
+    "register_family",
+]
 
 
-def get_method(name: Any) -> Any:
-    """The method registered under ``name``: "E", "T", "AB<s>", "RK<s>", ...
+@dataclass(frozen=True)
+class Family:
+    """A registered family of methods.
+
+    Attributes
+    ----------
+    key : str
+        Its name pattern for people: "E", "AB<s>", ...; "<s>" stands for the order.
+    pattern : re.Pattern
+        Matches the names of its members; the group (if any) is the order.
+    factory : callable
+        ``factory(s)`` for a family of orders, ``factory()`` for a single rule.
+    description : str
+    default_max_order : int or None
+        Orders 1..default_max_order are listed by :func:`available_methods`; None for
+        a single rule.
+    max_order : int or None
+        Largest order that exists (None: unbounded, or a single rule).
+    """
+
+    key: str
+    pattern: re.Pattern[str]
+    factory: Callable[..., Any]
+    description: str
+    default_max_order: int | None = None
+    max_order: int | None = None
+
+    @property
+    def ordered(self) -> bool:
+        """True for a family of orders ("AB<s>"), False for a single rule ("T")."""
+        return self.pattern.groups > 0
+
+    def name(self, s: int | None = None) -> str:
+        """Member name of order s ("AB<s>" -> "AB3"), or the single rule's name."""
+        return self.key.replace("<s>", str(s)) if self.ordered else self.key
+
+    def names(self) -> tuple[str, ...]:
+        """Names listed by default: orders 1..default_max_order, or the single rule."""
+        if not self.ordered:
+            return (self.key,)
+        return tuple(self.name(s) for s in range(1, (self.default_max_order or 1) + 1))
+
+    def build(self, s: int | None = None) -> Method:
+        """The method object of order s (ignored for a single rule).
+
+        Raises
+        ------
+        ValueError
+            for an order outside 1..max_order.
+        """
+        if not self.ordered:
+            return self.factory()
+        assert s is not None
+        if s < 1 or (self.max_order is not None and s > self.max_order):
+            allowed = ">= 1" if self.max_order is None else f"in 1..{self.max_order}"
+            raise ValueError(
+                f"order `s` of {self.key} must be {allowed}, got {s} ({self.name(s)!r})."
+            )
+        return self.factory(s)
+
+
+_FAMILIES: dict[str, Family] = {}
+
+
+def register_family(
+    key: str,
+    pattern: str,
+    factory: Callable[..., Any],
+    description: str,
+    *,
+    default_max_order: int | None = None,
+    max_order: int | None = None,
+) -> Family:
+    """Add a family of methods, e.g. ``register_family("AB<s>", r"AB(\\d+)", AdamsBashforth,
+    "Adams-Bashforth", default_max_order=6)``.
+
+    Parameters
+    ----------
+    key : str
+        Name pattern shown to people; "<s>" marks the order. A single rule's key is
+        its name.
+    pattern : str
+        Regular expression matching the member names (full match); one group, the
+        order, for a family of orders, none for a single rule.
+    factory : callable
+        ``factory(s)`` or ``factory()``, returning a method object.
+    description : str
+        One line for ``sampledyn methods`` and error messages.
+    default_max_order, max_order : int, optional
+        See :class:`Family`. A family of orders needs ``default_max_order``.
+
+    Raises
+    ------
+    ValueError
+        if the key does not match the pattern, a family of orders has no default
+        largest order, or its names collide with another family's.
+    """
+    rx = re.compile(pattern)
+    if rx.groups > 1:
+        raise ValueError(f"`pattern` {pattern!r} may have one group (the order), has {rx.groups}.")
+    fam = Family(key, rx, factory, description, default_max_order, max_order)
+    if fam.ordered and (default_max_order is None or default_max_order < 1):
+        raise ValueError(f"family {key!r} of orders needs `default_max_order` >= 1.")
+    unmatched = [n for n in fam.names() if not rx.fullmatch(n)]
+    if unmatched:
+        raise ValueError(
+            f"`pattern` {pattern!r} does not match {unmatched[0]!r}, a name of {key!r}."
+        )
+    for other in _FAMILIES.values():
+        if other.key != key:
+            _check_disjoint(fam, other)
+    _FAMILIES[key] = fam
+    return fam
+
+
+def _check_disjoint(a: Family, b: Family) -> None:
+    """Raise if a name of one family is matched by the other's pattern."""
+    for x, y in ((a, b), (b, a)):
+        taken = [n for n in x.names() if y.pattern.fullmatch(n)]
+        if taken:
+            raise ValueError(
+                f"name {taken[0]!r} of {x.key!r} is already taken by {y.key!r}: the families "
+                f"{a.key!r} and {b.key!r} would share names."
+            )
+
+
+def families() -> tuple[Family, ...]:
+    """Every registered family, in registration order."""
+    return tuple(_FAMILIES.values())
+
+
+def get_method(name: Any) -> Method:
+    """The method registered under ``name``: "E", "T", "AB<s>", "RK<s>", "ABu<s>", ...
 
     A method object passes through unchanged.
 
@@ -38,43 +167,28 @@ def get_method(name: Any) -> Any:
     ------
     ValueError
         for an unknown name (the message lists the valid ones) or a bad order.
+    TypeError
+        for anything that is neither a name nor a method object.
     """
     if not isinstance(name, str):
         if hasattr(name, "predict") and hasattr(name, "name"):
             return name
         raise TypeError(f"`method` must be a name or a method object, got {type(name).__name__}.")
     key = name.strip()
-    for pattern, factory, _ in _FAMILIES.values():
-        m = pattern.fullmatch(key)
+    for fam in _FAMILIES.values():
+        m = fam.pattern.fullmatch(key)
         if m:
-            return factory(int(m.group(1))) if m.groups() else factory()
-    valid = ", ".join(f"{k} ({d})" for k, (_, _, d) in _FAMILIES.items())
+            return fam.build(int(m.group(1))) if fam.ordered else fam.build()
+    valid = ", ".join(f"{f.key} ({f.description})" for f in _FAMILIES.values())
     raise ValueError(f"unknown method {name!r}; valid names: {valid}.")
 
 
-def available_methods(max_ab_order: int = 6) -> tuple[str, ...]:
-    """Concrete names of the built-in fixed rules, for iteration."""
-    names = ["E", "T"]
-    names += [f"AB{s}" for s in range(1, max_ab_order + 1)]
-    names += [f"RK{s}" for s in sorted(TABLEAUX)]
-    return tuple(names)
+def available_methods() -> tuple[str, ...]:
+    """Every usable name of every registered family, orders up to each family's
+    default largest one (E, AB1-AB6, T, RK1-RK4, ABu1-ABu6, ...)."""
+    return tuple(n for fam in _FAMILIES.values() for n in fam.names())
 
 
 def describe_methods() -> dict[str, str]:
-    """Family name -> one-line description."""
-    return {k: d for k, (_, _, d) in _FAMILIES.items()}
-
-
-# Estimated rules (section 4.2). Imported last: _estimated needs only _adams, and
-# reaches sampledyn.estimate lazily at predict time, so there is no import cycle.
-from ._estimated import EstimatedAdamsBashforth  # noqa: E402
-
-register_family(
-    "Ee", r"Ee", lambda: EstimatedAdamsBashforth(1, name="Ee"), "estimated Euler (= ABe1)"
-)
-register_family(
-    "ABe<s>",
-    r"ABe(\d+)",
-    lambda s: EstimatedAdamsBashforth(s),
-    "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1",
-)
+    """Family key -> one-line description."""
+    return {k: f.description for k, f in _FAMILIES.items()}

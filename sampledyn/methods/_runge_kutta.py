@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._base import stage_inputs
+from ._base import FixedRule, check_gain_args, nan_rows, stage_inputs, uniform_step
+from ._registry import register_family
 
 __all__ = ["ButcherTableau", "RungeKutta", "TABLEAUX"]
 
@@ -123,7 +124,7 @@ TABLEAUX: dict[int, ButcherTableau] = {
 
 
 @dataclass(frozen=True)
-class RungeKutta:
+class RungeKutta(FixedRule):
     """Explicit Runge-Kutta rule of order 1-4 (RK1 is Euler).
 
     Stage inputs between samples come from the ``signal`` given to :meth:`predict`
@@ -146,24 +147,130 @@ class RungeKutta:
             object.__setattr__(self, "name", f"RK{self.order}")
 
     @property
+    def family(self) -> str:
+        return "RK"
+
+    @property
     def history(self) -> int:
         return 1
 
-    def predict(self, model: Any, data: Trajectory, signal: Any = None) -> np.ndarray:
-        """One-step-ahead predictions, all intervals at once (one batch f per stage)."""
+    @property
+    def intersample(self) -> bool:
+        """True if a stage evaluates f inside the interval (some c_i > 0)."""
+        return any(c != 0 for c in self.tableau.c)
+
+    @property
+    def sample_weights(self) -> np.ndarray | None:
+        """(b_1,) for a one-stage tableau at c = 0 (Euler), else None."""
         tab = self.tableau
-        h = data.h
+        return np.array([float(tab.b[0])]) if tab.stages == 1 and tab.c[0] == 0 else None
+
+    @property
+    def first_order_gain(self) -> Fraction:
+        """sum |b_i| (= 1 for the built-in tableaux)."""
+        return sum((abs(b) for b in self.tableau.b), Fraction(0))
+
+    @property
+    def error_constant(self) -> Fraction | None:
+        """``1/2 - sum_i b_i c_i`` for order 1 (1/2 for Euler), whose leading error has the
+        single elementary differential f' f; None for s >= 2, where it is a sum over
+        several elementary differentials with different weights (Hairer, Norsett &
+        Wanner, Solving ODEs I, Sec. II.2)."""
+        if self.tableau.order != 1:
+            return None
+        return Fraction(1, 2) - sum(
+            (b * c for b, c in zip(self.tableau.b, self.tableau.c, strict=True)), Fraction(0)
+        )
+
+    def predict(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """One-step-ahead predictions, all intervals at once (one batch f per stage),
+        shape (N, nx), NaN in row 0."""
+        return self._stages(model, data, signal, derivatives=False)[0]
+
+    def _stages(
+        self, model: Any, data: Trajectory, signal: Any, *, derivatives: bool
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Predictions and, with ``derivatives``, d x_hat[k] / d x[k-1] forward-mode
+        through the stages: ``dk_i = F(y_i) (I + h sum_j a_ij dk_j)``,
+        ``Phi = I + h sum_i b_i dk_i``."""
+        tab = self.tableau
+        h = uniform_step(data, self.name)
         t0 = data.t[:-1]
         x0 = data.x[:-1]
+        eye = np.eye(data.nx)
         ks: list[np.ndarray] = []
+        dks: list[np.ndarray] = []
         for i in range(tab.stages):
             xi = x0.copy()
+            dxi = (
+                np.broadcast_to(eye, (x0.shape[0], data.nx, data.nx)).copy()
+                if derivatives
+                else None
+            )
             for j in range(i):
                 if tab.a[i][j] != 0:
                     xi += (h * float(tab.a[i][j])) * ks[j]
+                    if dxi is not None:
+                        dxi += (h * float(tab.a[i][j])) * dks[j]
             ci = float(tab.c[i])
-            ks.append(model.f(t0 + ci * h, xi, stage_inputs(data, signal, ci)))
-        out = np.full(data.x.shape, np.nan)
+            ui = stage_inputs(data, signal, ci)
+            ks.append(model.f(t0 + ci * h, xi, ui))
+            if dxi is not None:
+                dks.append(np.asarray(model.jacobian(t0 + ci * h, xi, ui)) @ dxi)
+        out = nan_rows(data, (data.nx,))
         incr = sum(float(bi) * k for bi, k in zip(tab.b, ks, strict=True))
         out[1:] = x0 + h * incr
-        return out
+        if not derivatives:
+            return out, None
+        phi = nan_rows(data, (1, data.nx, data.nx))
+        phi[1:, 0] = eye + h * sum(float(b) * dk for b, dk in zip(tab.b, dks, strict=True))
+        return out, phi
+
+    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+        """``G = h sum_i |b_i| K_i`` with ``K_i = L (I + h sum_j |a_ij| K_j)``: stage i
+        moves by at most ``K_i delta``. For a scalar L and the classical RK4 this is
+        ``z + z^2/2 + ... + z^4/4!`` (z = h L), about ``h L`` whatever the order."""
+        h, L = check_gain_args(h, lipschitz)
+        tab = self.tableau
+        eye = np.eye(L.shape[0])
+        ks: list[np.ndarray] = []
+        for i in range(tab.stages):
+            acc = eye.copy()
+            for j in range(i):
+                if tab.a[i][j] != 0:
+                    acc = acc + h * abs(float(tab.a[i][j])) * ks[j]
+            ks.append(L @ acc)
+        return h * sum(
+            (abs(float(b)) * k for b, k in zip(tab.b, ks, strict=True)), np.zeros_like(L)
+        )
+
+    def prediction_jacobians(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """``d x_hat[k] / d x[k-1]`` through the stages of eq. (8), with the stage
+        inputs :meth:`predict` uses; shape (N, 1, nx, nx)."""
+        phi = self._stages(model, data, signal, derivatives=True)[1]
+        assert phi is not None
+        return phi
+
+
+register_family(
+    "RK<s>",
+    r"RK(\d+)",
+    RungeKutta,
+    f"Runge-Kutta, s in {sorted(TABLEAUX)}",
+    default_max_order=max(TABLEAUX),
+    max_order=max(TABLEAUX),
+)

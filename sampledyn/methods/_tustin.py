@@ -7,12 +7,14 @@ analytic Jacobian.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._base import stage_inputs
+from ._base import FixedRule, check_gain_args, nan_rows, stage_inputs, uniform_step
+from ._registry import register_family
 
 __all__ = ["ConvergenceError", "Tustin"]
 
@@ -22,7 +24,7 @@ class ConvergenceError(RuntimeError):
 
 
 @dataclass(frozen=True)
-class Tustin:
+class Tustin(FixedRule):
     """Trapezoid rule (bilinear transform), order 2, implicit.
 
     Parameters
@@ -45,13 +47,45 @@ class Tustin:
             raise ValueError(f"`max_iter` must be >= 1, got {self.max_iter}.")
 
     @property
+    def family(self) -> str:
+        return "T"
+
+    @property
     def history(self) -> int:
         return 1
 
-    def predict(self, model: Any, data: Trajectory, signal: Any = None) -> np.ndarray:
-        """One-step-ahead predictions; the input over ``[t_n, t_{n+1}]`` is the held
-        sample, or ``signal`` at both ends (its left limit at t_{n+1}) when given."""
-        h = data.h
+    @property
+    def intersample(self) -> bool:
+        """True: f is evaluated at t_{n+1}, with the input there."""
+        return True
+
+    @property
+    def first_order_gain(self) -> Fraction:
+        return Fraction(1)
+
+    @property
+    def error_constant(self) -> Fraction:
+        """-1/12: the trapezoid's local error is ``-h^3/12 x^(3) + O(h^4)``."""
+        return Fraction(-1, 12)
+
+    def predict(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """One-step-ahead predictions, shape (N, nx), NaN in row 0; the input over
+        ``[t_n, t_{n+1}]`` is the held sample, or ``signal`` at both ends (its left
+        limit at t_{n+1}) when given.
+
+        Raises
+        ------
+        ConvergenceError
+            if Newton's iteration does not converge on some interval.
+        """
+        h = uniform_step(data, self.name)
         t0, t1 = data.t[:-1], data.t[:-1] + h
         x0 = data.x[:-1]
         u0 = data.u[:-1]
@@ -76,6 +110,39 @@ class Tustin:
                 f"t={t0[bad[0]]:g} s). The step h={h} s may be too large for the model's "
                 "stiffness there; raise `max_iter` or `tol`, or use a smaller h."
             )
-        out = np.full(data.x.shape, np.nan)
+        out = nan_rows(data, (data.nx,))
         out[1:] = x
         return out
+
+    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+        """The implicit solution moves by ``d = delta + (h/2) L (delta + d)``, so
+        ``G = h L (I - h L / 2)^-1`` (scalar: ``z / (1 - z/2)``); every entry is inf
+        when the spectral radius of ``h L / 2`` is >= 1."""
+        h, L = check_gain_args(h, lipschitz)
+        half = 0.5 * h * L
+        if max(abs(np.linalg.eigvals(half))) >= 1.0:
+            return np.full(L.shape, np.inf)
+        return h * L @ np.linalg.inv(np.eye(L.shape[0]) - half)
+
+    def prediction_jacobians(
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        cache: dict[Any, Any] | None = None,
+    ) -> np.ndarray:
+        """``d x_hat[k] / d x[k-1] = (I - h/2 F(x_hat_k))^-1 (I + h/2 F(x_{k-1}))``,
+        shape (N, 1, nx, nx)."""
+        h = uniform_step(data, self.name)
+        x_hat = self.predict(model, data, signal)
+        eye = np.eye(data.nx)
+        f0 = np.asarray(model.jacobian(data.t[:-1], data.x[:-1], data.u[:-1]))
+        u1 = stage_inputs(data, signal, 1.0)
+        f1 = np.asarray(model.jacobian(data.t[1:], x_hat[1:], u1))
+        phi = nan_rows(data, (1, data.nx, data.nx))
+        phi[1:, 0] = np.linalg.solve(eye - 0.5 * h * f1, eye + 0.5 * h * f0)
+        return phi
+
+
+register_family("T", r"T", Tustin, "Tustin, implicit trapezoid")

@@ -9,10 +9,18 @@ disk) or :class:`FunctionModel` (a numba-compilable function). Closed loops:
 from ._attitude_hold import AttitudeHold as AttitudeHold
 from ._attitude_hold import roll_pitch_hold as roll_pitch_hold
 from ._auv import AUVLike as AUVLike
+
+# numba signatures of compiled right-hand sides, for the simulator's kernels
+from ._base import RHS_SIG as RHS_SIG
+from ._base import RHS_TYPE as RHS_TYPE
+from ._base import RO1 as RO1
+from ._base import RO2 as RO2
 from ._base import CompiledModel as CompiledModel
 from ._base import JacobianUnavailableError as JacobianUnavailableError
 from ._base import LinearForm as LinearForm
 from ._base import Model as Model
+from ._base import index_switch as index_switch
+from ._base import readonly as readonly
 from ._closed_loop import ClosedLoop as ClosedLoop
 from ._closed_loop import FeedbackLaw as FeedbackLaw
 from ._closed_loop import LinearFeedback as LinearFeedback

@@ -547,6 +547,25 @@ class Vehicle(CompiledModel):
     def param_names(self) -> tuple[str, ...]:
         return tuple(_PARAMS)
 
+    def with_buoyancy(self, percent: float) -> Vehicle:
+        """The same vehicle with its displaced volume set so that the buoyancy is
+        ``B = (1 + percent / 100) W`` (the paper's Fig. 7 run uses +1 %).
+
+        Raises
+        ------
+        VehicleParameterError
+            if ``percent`` is not a finite number above -100.
+        """
+        if isinstance(percent, bool) or not isinstance(percent, int | float | np.number):
+            raise VehicleParameterError(
+                "buoyancy_pct", f"`buoyancy_pct` must be a number (%), got {percent!r}."
+            )
+        if not math.isfinite(percent) or percent <= -100:
+            raise VehicleParameterError(
+                "buoyancy_pct", f"`buoyancy_pct` must be a finite number > -100 %, got {percent}."
+            )
+        return self.with_params(volume=(1.0 + percent / 100.0) * self.mass / self.rho)
+
     def with_params(self, **values: Any) -> Vehicle:
         """The same vehicle with some parameters or options changed.
 

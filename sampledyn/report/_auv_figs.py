@@ -6,6 +6,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..methods import get_method
+
 __all__ = ["plot_error_vs_order"]
 
 
@@ -18,8 +20,9 @@ def plot_error_vs_order(
 ) -> Path:
     """Plot each norm (log scale) against the order, one panel per ``(key, caption)``.
 
-    Methods whose names share a prefix (AB, ABe, RK) are joined as one curve per
-    h_u/h; single rules (E, Ee, T) are drawn as markers at their order.
+    The rules of one family (AB, ABu, ABe, RK, ...) present at more than one order are
+    joined as one curve per h_u/h (dashed for estimated rules); a family present at
+    one order only (E, T, Ee in Fig. 3) is drawn as markers at that order.
     """
     import matplotlib
 
@@ -31,8 +34,7 @@ def plot_error_vs_order(
     ratios = sorted({r["hold_ratio"] for r in rows})
     families: dict[str, list[dict[str, Any]]] = {}
     for r in rows:
-        fam = r["method"].rstrip("0123456789") if r["method"][-1].isdigit() else r["method"]
-        families.setdefault(fam, []).append(r)
+        families.setdefault(get_method(r["method"]).family, []).append(r)
     cmap = plt.get_cmap("viridis")
     fig, axes = plt.subplots(
         1, len(norms), figsize=(5.2 * len(norms), 4.8), sharey=True, squeeze=False
@@ -57,8 +59,12 @@ def _panel(
     caption: str,
     cmap: Any,
 ) -> None:
-    styles = {"AB": "-", "RK": "-", "ABe": "--"}
-    markers = {"E": "o", "T": "s", "Ee": "D"}
+    single = [f for f, fr in families.items() if len({r["order"] for r in fr}) == 1]
+    markers = dict(zip(single, "osD^v<>pPX*h", strict=False))
+    estimated = {f for f, fr in families.items() if get_method(fr[0]["method"]).estimates_params}
+    curves = [f for f in families if f not in markers]
+    # Solid curves carry the h_u/h labels; a second solid family gets another line style.
+    solid = dict(zip([f for f in curves if f not in estimated], ("-", "-.", ":"), strict=False))
     for k, ratio in enumerate(ratios):
         color = cmap(k / max(1, len(ratios) - 1))
         for fam, frows in families.items():
@@ -67,18 +73,13 @@ def _panel(
                 continue
             xs, ys = zip(*pts, strict=True)
             if fam in markers:
-                ax.plot(
-                    xs,
-                    ys,
-                    markers[fam],
-                    color=color,
-                    mfc="none",
-                    ms=8,
-                    label=f"{fam}" if k == 0 else None,
-                )
+                label = get_method(frows[0]["method"]).label if k == 0 else None
+                ax.plot(xs, ys, markers[fam], color=color, mfc="none", ms=8, label=label)
+            elif fam in estimated:
+                ax.plot(xs, ys, "--", marker=".", color=color, label=fam if k == 0 else None)
             else:
-                label = f"{fam}, $h_u/h$={ratio}" if fam != "ABe" else ("ABe" if k == 0 else None)
-                ax.plot(xs, ys, styles.get(fam, "-"), marker=".", color=color, label=label)
+                label = f"{fam}, $h_u/h$={ratio}"
+                ax.plot(xs, ys, solid.get(fam, "-"), marker=".", color=color, label=label)
     ax.set_yscale("log")
     ax.set_xlabel("order s")
     ax.set_title(caption, fontsize=9)

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..experiments._paper_fig7 import PAPER_FIG7
+from ..experiments import PAPER_FIG7
+from ..methods import get_method
 
 __all__ = ["fig7_table", "norm_evidence", "plot_fig7", "ratio_phrase"]
 
@@ -123,14 +124,14 @@ def plot_fig7(
     for col, h in enumerate(hs):
         for row, (q, label) in enumerate((("pos", "position"), ("vel", "velocity"))):
             ax = axes[row][col]
-            # The y range follows the AB rules and the paper; a rule far off that
-            # range (RK4 when h |lambda| leaves its stability region) is drawn as
-            # triangles on the top edge.
+            # The y range follows the rules that use f at the samples only (AB_s)
+            # and the paper; a rule far off that range (RK4 when h |lambda| leaves
+            # its stability region) is drawn as triangles on the top edge.
             inside = [
                 look[(h, e, v, m)][f"{q}_{norm}"]
                 for e, v in pairs
                 for m in methods
-                if m.startswith("AB") or m == "E"
+                if not get_method(m).intersample
             ] + [
                 r[0 if q == "pos" else 1][j]
                 for r in (PAPER_FIG7.get((h, e, v)) for e, v in pairs)

@@ -7,27 +7,29 @@ columns h, eta_pct, v_pct, method, order, err_eta, err_v) and write a PNG. They 
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..methods import get_method
+
 __all__ = ["ab_orders", "baseline", "plot_order", "plot_ratio_maps"]
 
-_AB = re.compile(r"^AB(\d+)$")
 QUANTITIES = (("err_eta", "position/angle error (eta)"), ("err_v", "velocity error (v)"))
 
 
 def ab_orders(methods: Any) -> dict[int, str]:
-    """Order -> name of the fixed Adams-Bashforth rules among ``methods`` (E as AB1)."""
+    """Order -> name of the fixed Adams-Bashforth rules among ``methods`` (E is AB1;
+    of two names of one order, the first in sorted order, "AB1" before "E")."""
     out: dict[int, str] = {}
-    for m in methods:
-        match = _AB.match(str(m))
-        if match:
-            out[int(match.group(1))] = str(m)
-    if 1 not in out and "E" in set(methods):
-        out[1] = "E"
+    for name in sorted({str(m) for m in methods}):
+        try:
+            m = get_method(name)
+        except ValueError:  # a name no longer registered: not one of the AB rules
+            continue
+        if m.family == "AB":
+            out.setdefault(int(m.order), name)
     return dict(sorted(out.items()))
 
 

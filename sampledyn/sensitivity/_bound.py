@@ -41,7 +41,6 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import AdamsBashforth
 from ..noise import noise_amplitudes
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
@@ -114,7 +113,8 @@ class ErrorBound:
     noise_norms : tuple of float
         ``(||a_eta||, ||a_v||)``, the largest noise vector norms.
     truncation_estimate : tuple of float or None
-        AB_s only: ``gamma_s h max ||nabla^s f||`` per block (eta, v).
+        ``C h max ||nabla^s f||`` per block (eta, v) for the rules that extrapolate
+        sampled f (AB_s: C = gamma_s); None for the others.
     jacobians, jacobians_widened : JacobianReport
         Maxima over the domain of the clean states and over it widened by the noise.
     """
@@ -210,11 +210,11 @@ def truncation_errors(
 
 
 def _truncation_estimate(model: Any, m: Any, clean: Trajectory) -> tuple[float, float] | None:
-    if not isinstance(m, AdamsBashforth):
+    """``C h max ||nabla^s f||`` per block, for the rules that extrapolate sampled f."""
+    d = m.truncation_differences(model, clean)
+    if d is None or d.shape[0] == 0 or m.error_constant is None:
         return None
     gamma = float(error_constant(m) or 0)
-    f = model.f(clean.t, clean.x, clean.u)
-    d = np.diff(f, n=m.order, axis=0)
     e_eta, e_v = block_error_norms(d)
     return gamma * clean.h * float(e_eta.max()), gamma * clean.h * float(e_v.max())
 

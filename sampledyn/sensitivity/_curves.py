@@ -20,7 +20,7 @@ from ..noise import noise_amplitudes
 from ._bound import assemble_bound, jacobian_pair, subsample
 from ._domain import Domain
 from ._gains import supported_method
-from ._path import _block_norms, path_prediction
+from ._path import path_prediction
 
 __all__ = ["ErrorCurves", "error_curves", "h_grid"]
 
@@ -109,7 +109,7 @@ def error_curves(
     amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
     report, report_plus = jacobian_pair(model, domain, amp, samples)
     ms = [supported_method(m, "methods") for m in methods]
-    need = max(getattr(m, "history", 1) for m in ms) + 3
+    need = max(m.history for m in ms) + 3
     ks = [k for k in ks if (base.n_samples - 1) // k + 1 >= need]
     if not ks:
         raise ValueError("the reference run is too short for the requested periods.")
@@ -117,14 +117,11 @@ def error_curves(
     store: dict[str, dict[str, np.ndarray]] = {
         key: {m.name: np.empty((len(ks), 2)) for m in ms} for key in keys
     }
-    jac = np.asarray(model.jacobian(base.t, base.x, base.u))
-    jac_norms = _block_norms(jac)
     for row, k in enumerate(ks):
         clean = subsample(base, k)
+        cache: dict[Any, Any] = {}  # f and df/dx at these samples, shared by the rules
         for m in ms:
-            p = path_prediction(
-                model, m, clean, amp, signal, eta_pct, v_pct, jac=jac[::k], jac_norms=jac_norms[::k]
-            )
+            p = path_prediction(model, m, clean, amp, signal, eta_pct, v_pct, cache=cache)
             b = assemble_bound(m, clean.h, eta_pct, v_pct, amp, report, report_plus, p.truncation)
             store["truncation"][m.name][row] = p.truncation
             store["predicted_noise"][m.name][row] = p.noise

@@ -18,8 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..signals import Sinusoidal, fig6_thrusters
-from ..signals._fig6 import thruster_roles
+from ..signals import Sinusoidal, fig6_thrusters, thruster_roles
 
 __all__ = ["gentle_input", "pitch_input"]
 

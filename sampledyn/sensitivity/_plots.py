@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..methods import get_method
 from ._curves import ErrorCurves
 
 __all__ = [
@@ -38,7 +39,9 @@ def _save(fig: Any, path: str | Path) -> Path:
 
 
 def _family(name: str) -> int:
-    return 0 if name == "E" or name.startswith("AB") else 1
+    """Row of the figure: 0 for rules that use f at the samples only (E, AB_s, ...),
+    1 for those that evaluate f between samples (RK_s, T)."""
+    return int(get_method(name).intersample)
 
 
 def plot_crossing(
@@ -51,7 +54,8 @@ def plot_crossing(
     """Truncation error (solid, ~h^(s+1)) and noise term (dashed, growing with the noise
     gain) against h, per rule; dots where they cross.
 
-    Top row: E and AB_s; bottom row: RK_s and T (skipped when none is present).
+    Top row: rules that use f at the samples only (E, AB_s); bottom row: rules that
+    evaluate f between samples (RK_s, T), skipped when none is present.
     Columns: the position and the velocity block. ``h_mark`` draws a vertical line.
 
     Returns

@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import AdamsBashforth, ab_filter
 from ..noise import add_noise, noise_amplitudes
 from ._bound import (
     ErrorBound,
@@ -80,16 +79,10 @@ def raw_errors(
     """Local errors ``data.x - prediction`` of every method, shape (N, 12) each (NaN
     without prediction). f is evaluated once and shared by every AB order."""
     out: dict[str, np.ndarray] = {}
-    f = None
+    cache: dict[Any, Any] = {}
     for name in methods:
         m = supported_method(name)
-        if isinstance(m, AdamsBashforth):
-            if f is None:
-                f = model.f(data.t, data.x, data.u)
-            x_hat = ab_filter(data.x, f, data.h, m.weights)
-        else:
-            x_hat = m.predict(model, data, signal)
-        out[m.name] = data.x - x_hat
+        out[m.name] = data.x - m.predict(model, data, signal, cache=cache)
     return out
 
 

@@ -4,6 +4,7 @@ from ._base import InputSpec as InputSpec
 from ._base import Signal as Signal
 from ._fig6 import FIG6_TABLE as FIG6_TABLE
 from ._fig6 import fig6_thrusters as fig6_thrusters
+from ._fig6 import thruster_roles as thruster_roles
 from ._multilevel import Multilevel as Multilevel
 from ._multilevel import ZeroOrderHold as ZeroOrderHold
 from ._sinusoid import Sinusoidal as Sinusoidal
@@ -12,6 +13,7 @@ __all__ = [
     "FIG6_TABLE",
     "InputSpec",
     "fig6_thrusters",
+    "thruster_roles",
     "Multilevel",
     "Signal",
     "Sinusoidal",

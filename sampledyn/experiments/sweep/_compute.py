@@ -21,8 +21,7 @@ import numpy as np
 
 from ..._trajectory import Trajectory
 from ...errors import error_norm, local_errors
-from ...methods import AdamsBashforth, ab_filter, get_method
-from ...methods._tustin import ConvergenceError
+from ...methods import ConvergenceError, get_method
 from ...noise import NOISE_REFERENCE, add_noise
 from ...simulate import IntegrationError, simulate
 from ._plan import Chunk, Group, Setup
@@ -106,10 +105,10 @@ def _group_rows(setup: Setup, traj: Trajectory, group: Group) -> list[dict[str, 
     seq = np.random.SeedSequence([setup.base_seed, group.seed])
     measured = add_noise(traj, group.eta_pct, group.v_pct, seq, distribution=setup.distribution)
     comps = _groups(traj.state_units)
-    f_cache: dict[str, Any] = {}
+    cache: dict[Any, Any] = {}  # f at the samples, shared by every AB-type rule
     by_method: dict[str, list[tuple[str, str]]] = {}
-    for key, method, norm in group.cells:
-        by_method.setdefault(method, []).append((key, norm))
+    for key, name, norm in group.cells:
+        by_method.setdefault(name, []).append((key, norm))
     rows: list[dict[str, Any]] = []
     shared = time.perf_counter() - t_group
     for method_name, cells in by_method.items():
@@ -118,17 +117,7 @@ def _group_rows(setup: Setup, traj: Trajectory, group: Group) -> list[dict[str, 
             warnings.simplefilter("always")
             try:
                 method = get_method(method_name)
-                if isinstance(method, AdamsBashforth):
-                    if "f" not in f_cache:  # f once per sample, shared by every AB order
-                        try:
-                            f_cache["f"] = setup.model.f(measured.t, measured.x, measured.u)
-                        except CELL_ERRORS as exc:
-                            f_cache["f"] = exc
-                    if isinstance(f_cache["f"], Exception):
-                        raise f_cache["f"]
-                    x_hat = ab_filter(measured.x, f_cache["f"], measured.h, method.weights)
-                else:
-                    x_hat = np.asarray(method.predict(setup.model, measured, setup.signal))
+                x_hat = np.asarray(method.predict(setup.model, measured, setup.signal, cache=cache))
                 err = local_errors(x_hat, measured)
                 values = [
                     (key, norm, _norms(err, measured.t, norm, setup.after, comps), "")

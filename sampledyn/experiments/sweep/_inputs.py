@@ -82,9 +82,7 @@ def build_model(vehicle: str, buoyancy_pct: float | None = None) -> Any:
         return AUVLike()
     model = load_vehicle(vehicle)
     if buoyancy_pct is not None:
-        from .._rov import fig7_vehicle
-
-        model = fig7_vehicle(model, buoyancy_pct)
+        model = model.with_buoyancy(buoyancy_pct)
     return model
 
 

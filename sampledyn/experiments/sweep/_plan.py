@@ -20,14 +20,15 @@ from __future__ import annotations
 
 import hashlib
 import json
-import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ...methods import get_method
 from ._config import SweepConfig
 from ._inputs import build_model, make_input
 
@@ -80,20 +81,16 @@ def input_fingerprint(signal: Any, T: float) -> str:
     return _hash_numbers(np.asarray(signal(t), dtype=float))
 
 
-_ORDER = re.compile(r"^(?:AB|ABe|RK)(\d+)$")
-_FIXED_ORDERS = {"E": 1, "Ee": 1, "T": 2}
-
-
 def vehicle_label(vehicle: str) -> str:
     """A vehicle as recorded with its cells: a built-in name, or a file's name (its
     content is in the model fingerprint, so moving the file keeps the keys)."""
     return Path(vehicle).name if vehicle.endswith(".toml") else vehicle
 
 
-def cell_order(method: str) -> int | None:
-    """Order s of a method name (AB<s>, ABe<s>, RK<s>; E and Ee 1; T 2)."""
-    m = _ORDER.match(method)
-    return int(m.group(1)) if m else _FIXED_ORDERS.get(method)
+@lru_cache(maxsize=256)
+def cell_order(method: str) -> int:
+    """Order s of the registered method ``method`` (AB<s>, RK<s>: s; E: 1; T: 2; ...)."""
+    return int(get_method(method).order)
 
 
 @dataclass(frozen=True)
@@ -274,7 +271,7 @@ def plan_study(config: SweepConfig) -> Study:
     ValueError
         if the vehicle or the input cannot be built (the message names them).
     """
-    from ... import __version__
+    from ..._version import __version__
 
     try:
         model = build_model(config.vehicle, config.buoyancy_pct)

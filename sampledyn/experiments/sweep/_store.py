@@ -524,7 +524,7 @@ class ResultStore:
 
     def start_run(self, *, backend: str, planned: int, skipped: int, config: Any) -> str:
         """Record a new run; returns its id."""
-        from ... import __version__
+        from ..._version import __version__
 
         run_id = uuid.uuid4().hex
         now = time.time()

@@ -14,7 +14,7 @@ affine in theta: ``e_k = b_k - A_k theta`` with
     A_k = h sum_i a_i Phi_{k-1-i},    b_k = x_k - x_{k-1} - h sum_i a_i f0_{k-1-i}.
 
 Stacking the rows of all samples in the window gives a linear l_p regression, solved
-exactly (:mod:`sampledyn._estimate_linear`). Other structures (RK_s, Tustin) and
+exactly (:mod:`sampledyn.estimate._linear`). Other structures (RK_s, Tustin) and
 parameters that enter f nonlinearly are fitted by ``scipy.optimize.least_squares``
 (p = 2 only).
 """
@@ -31,17 +31,10 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from ._estimate_linear import (
-    check_identifiable,
-    covariance,
-    lp_norm,
-    solve_linear,
-)
-from ._trajectory import Trajectory
-from .methods._adams import AdamsBashforth, ab_filter
-from .methods._registry import get_method
-from .methods._runge_kutta import RungeKutta
-from .predict import check_measured
+from .._trajectory import Trajectory
+from ..methods import ab_filter, get_method, uniform_step
+from ..predict import check_measured
+from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
 __all__ = ["EstimationResult", "estimate", "estimate_and_predict"]
 
@@ -360,7 +353,7 @@ def estimate(
     ``numpy.linalg.lstsq``; p = 1 and p = inf by linear programming (HiGHS); other p by
     IRLS with smoothing ``|r| -> sqrt(r**2 + eps**2)``, eps = 1e-7 times the largest
     least-squares residual, and a monotone line search (converges; see
-    :mod:`sampledyn._estimate_linear`). RK_s, T, or parameters entering f
+    :mod:`sampledyn.estimate._linear`). RK_s, T, or parameters entering f
     nonlinearly: ``scipy.optimize.least_squares`` from the model's values, p = 2.
 
     **Accuracy on exact samples.** The one-step errors of AB_s are O(h**(s+1)) per
@@ -405,20 +398,19 @@ def estimate(
     check_measured(model, measured)
     p = _check_p(p)
     rule = get_method(structure)
-    if getattr(rule, "estimates_params", False):
+    if rule.estimates_params:
         raise ValueError(
             f"`structure` must be a fixed rule (E, AB<s>, RK<s>, T), got {rule.name!r}."
         )
-    ab_weights: np.ndarray | None = None
-    if isinstance(rule, AdamsBashforth):
-        ab_weights = rule.weights
-    elif isinstance(rule, RungeKutta) and rule.order == 1:
-        ab_weights = np.ones(1)
+    uniform_step(measured, rule.name)
+    # A rule that is a fixed filter of f at the samples (AB_s, Euler) gives one-step
+    # errors affine in theta for models linear in theta.
+    ab_weights = rule.sample_weights
     if free_weights and ab_weights is None:
         raise ValueError(
             f"`free_weights=True` needs an Adams-Bashforth `structure`, got {rule.name!r}."
         )
-    history = len(ab_weights) if ab_weights is not None else int(getattr(rule, "history", 1))
+    history = len(ab_weights) if ab_weights is not None else rule.history
     lf = _linear_form(model, measured)
     free = _free_params(model, params, lf, free_weights)
     k = _window(measured, history, after, skip_input_jumps and ab_weights is not None)
@@ -712,7 +704,7 @@ def _fit_nonlinear(ctx: _Context, signal: Any) -> EstimationResult:
     cond = check_identifiable(sol.jac, ctx.free, cond_warn=ctx.cond_warn, stacklevel=4)
     std = np.sqrt(np.diag(covariance(np.asarray(sol.jac), sol.fun)))
     residuals = (sol.fun.reshape(-1, ctx.comps.size) * ctx.scale[None, :]).ravel()
-    ab = ctx.rule.weights if isinstance(ctx.rule, AdamsBashforth) else None
+    ab = ctx.rule.sample_weights
     return ctx.result(
         sol.x,
         residuals,

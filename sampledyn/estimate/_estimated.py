@@ -5,6 +5,9 @@ to predict, minimising the l_p norm of the AB_s one-step errors
 (:func:`sampledyn.estimate`), then predicts with AB_s and the estimated model. The
 object itself holds only settings (frozen); the estimate is returned by
 :meth:`EstimatedAdamsBashforth.estimate` or :func:`sampledyn.estimate_and_predict`.
+
+The family is registered here, in the estimation layer, so the method registry below
+it never reaches up into estimation.
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._adams import ab_coefficients
+from ..methods import ab_coefficients, register_family, warn_if_unstable
+from ._estimate import EstimationResult, estimate_and_predict
 
 __all__ = ["EstimatedAdamsBashforth"]
 
@@ -50,12 +54,11 @@ class EstimatedAdamsBashforth:
     params: tuple[str, ...] | None = None
     free_weights: bool = False
 
-    estimates_params = True
-
     def __post_init__(self) -> None:
         ab_coefficients(self.order)  # validates the order
         if not self.name:
             object.__setattr__(self, "name", f"ABe{self.order}")
+        warn_if_unstable(self.order, self.name)
         if self.after_fraction is not None and not (0.0 <= self.after_fraction < 1.0):
             raise ValueError(
                 f"`after_fraction` must be in [0, 1) or None, got {self.after_fraction}."
@@ -65,9 +68,66 @@ class EstimatedAdamsBashforth:
         if self.params is not None:
             object.__setattr__(self, "params", tuple(self.params))
 
+    # -- what the rule is (the Method protocol) --------------------------------------
+
+    @property
+    def family(self) -> str:
+        return "ABe"
+
     @property
     def history(self) -> int:
         return self.order
+
+    @property
+    def label(self) -> str:
+        return self.name if self.p == 2 else f"{self.name} (l_{self.p:g})"
+
+    @property
+    def intersample(self) -> bool:
+        return False
+
+    @property
+    def estimates_params(self) -> bool:
+        """True: the parameters are fitted on the data predicted."""
+        return True
+
+    @property
+    def sample_weights(self) -> None:
+        """None: the rule is AB_s only after its parameters have been fitted."""
+        return None
+
+    @property
+    def first_order_gain(self) -> None:
+        """None: no noise bound, the parameters change with the (noisy) data."""
+        return None
+
+    @property
+    def error_constant(self) -> None:
+        return None
+
+    def _no_bound(self, what: str) -> ValueError:
+        return ValueError(
+            f"{self.name!r} has no {what}: it estimates its parameters on the data, so "
+            "they change with the noise; use the fixed rule "
+            f"{self.structure!r} with the estimated model (EstimationResult.model)."
+        )
+
+    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+        """Raises ValueError: estimated rules have no noise bound."""
+        raise self._no_bound("noise gain")
+
+    def prediction_jacobians(
+        self, model: Any, data: Trajectory, signal: Any = None, *, cache: Any = None
+    ) -> np.ndarray:
+        """Raises ValueError: the prediction depends on every sample through the fit."""
+        raise self._no_bound("prediction Jacobians")
+
+    def truncation_differences(
+        self, model: Any, data: Trajectory, signal: Any = None, *, cache: Any = None
+    ) -> None:
+        return None
+
+    # -- estimation --------------------------------------------------------------------
 
     @property
     def structure(self) -> str:
@@ -81,28 +141,50 @@ class EstimatedAdamsBashforth:
         return t0 + self.after_fraction * (t1 - t0)
 
     def estimate_and_predict(
-        self, model: Any, data: Trajectory, signal: Any = None
-    ) -> tuple[np.ndarray, Any]:
+        self,
+        model: Any,
+        data: Trajectory,
+        signal: Any = None,
+        *,
+        after: float | None = None,
+    ) -> tuple[np.ndarray, EstimationResult]:
         """``(x_hat, EstimationResult)``: the estimate on ``data`` and the one-step
-        predictions of AB_s with it, x_hat shape (N, nx)."""
-        from ..estimate import estimate_and_predict
+        predictions of AB_s with it, x_hat shape (N, nx).
 
+        ``after`` (s), when given, starts the estimation window there instead of at
+        ``after_fraction``.
+        """
         return estimate_and_predict(
             model,
             data,
             self.structure,
             signal=signal,
             p=self.p,
-            after=self._after(data),
+            after=self._after(data) if after is None else after,
             params=self.params,
             free_weights=self.free_weights,
         )
 
-    def estimate(self, model: Any, data: Trajectory, signal: Any = None) -> Any:
+    def estimate(self, model: Any, data: Trajectory, signal: Any = None) -> EstimationResult:
         """The :class:`~sampledyn.EstimationResult` this rule predicts with."""
         return self.estimate_and_predict(model, data, signal)[1]
 
-    def predict(self, model: Any, data: Trajectory, signal: Any = None) -> np.ndarray:
+    def predict(
+        self, model: Any, data: Trajectory, signal: Any = None, *, cache: Any = None
+    ) -> np.ndarray:
         """Estimate on ``data``, then x_hat[n + 1] for every n, shape (N, nx); NaN in
-        the first s rows. ``model`` supplies the structure and the fixed parameters."""
+        the first s rows. ``model`` supplies the structure and the fixed parameters;
+        ``cache`` is not used (f changes with the estimate)."""
         return self.estimate_and_predict(model, data, signal)[0]
+
+
+register_family(
+    "Ee", r"Ee", lambda: EstimatedAdamsBashforth(1, name="Ee"), "estimated Euler (= ABe1)"
+)
+register_family(
+    "ABe<s>",
+    r"ABe(\d+)",
+    EstimatedAdamsBashforth,
+    "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1",
+    default_max_order=6,
+)

@@ -25,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from .methods import ConvergenceError
+from ..methods import ConvergenceError
 
 __all__ = [
     "LinearSolution",
