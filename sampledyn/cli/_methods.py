@@ -9,6 +9,7 @@ __all__ = ["add_parser"]
 
 
 def _cmd_methods(args: argparse.Namespace) -> int:
+    from .. import estimate  # noqa: F401  (registers Ee, ABe<s>)
     from ..methods import available_methods, families, get_method
 
     print("Method families:")
