@@ -3,7 +3,6 @@
 # The estimation layer registers its rules (Ee, ABe<s>) into the method registry; the
 # studies iterate the whole registry.
 from .. import estimate as _estimate  # noqa: F401
-
 from ._auv import AUVStudy as AUVStudy
 from ._auv import away_from_jumps as away_from_jumps
 from ._auv import away_from_kinks as away_from_kinks
