@@ -12,6 +12,8 @@ measured in the same run, so the numbers are robust to the speed of a shared mac
   evaluator took the kernel as a function-pointer argument (about 35 us of numba
   dispatch, measured here as ``fn-pointer``); now it is bound to the kernel as a global.
   Target <= 5 us.
+* ``jacobian``: ``model.jacobian(t, x, u)`` for one state and a batch of one (the
+  vehicle's pitch check runs on a float there, as in ``f``).
 * ``large batch``: ns per sample of ``model.f`` on N states against the function-
   pointer evaluator on the same states. Target: no slower (ratio <= 1).
 * ``kernel``: ns per call of the model's kernel inside a compiled loop through a
@@ -53,16 +55,19 @@ def best_per_call(fns: dict, calls: int, repeat: int = 9) -> dict[str, float]:
     return best
 
 
-def python_calls(name: str, model, rng) -> dict[str, float]:
+def one_state(model, rng) -> tuple[np.ndarray, ...]:
+    """A random state and input as a batch of one (t1, x1, u1) and as one state (x0, u0)."""
     nx, nu = model.nx, model.nu
-    scale = 0.1 if nx > 2 else 1.0
-    x1 = rng.normal(size=(1, nx)) * scale
+    x1 = rng.normal(size=(1, nx)) * (0.1 if nx > 2 else 1.0)
     u1 = rng.normal(size=(1, nu)) * (500.0 if nu > 1 else 5.0)
-    t1 = np.zeros(1)
-    x0, u0 = x1[0].copy(), u1[0].copy()
+    return np.zeros(1), x1, u1, x1[0].copy(), u1[0].copy()
+
+
+def python_calls(name: str, model, rng) -> dict[str, float]:
+    t1, x1, u1, x0, u0 = one_state(model, rng)
     rhs, p = model.kernel()
     p = readonly(p)
-    out = np.empty(nx)
+    out = np.empty(model.nx)
     model.f(0.0, x0, u0)  # compile / load
     model.f(t1, x1, u1)
     rt, rx, ru = readonly(t1), readonly(x1), readonly(u1)
@@ -84,6 +89,23 @@ def python_calls(name: str, model, rng) -> dict[str, float]:
         f"{pointer1 / batch1:5.1f}x slower)"
     )
     return {"bare_us": bare * 1e6, "single_us": single * 1e6, "batch1_us": batch1 * 1e6}
+
+
+def python_jacobian_calls(name: str, model, rng) -> None:
+    t1, x1, u1, x0, u0 = one_state(model, rng)
+    model.jacobian(0.0, x0, u0)  # compile / load
+    model.jacobian(t1, x1, u1)
+    times = best_per_call(
+        {
+            "single": lambda: model.jacobian(0.0, x0, u0),
+            "batch1": lambda: model.jacobian(t1, x1, u1),
+        },
+        5000,
+    )
+    print(
+        f"{name:<28} jacobian: single {times['single'] * 1e6:6.2f} us | batch of one "
+        f"{times['batch1'] * 1e6:6.2f} us"
+    )
 
 
 def large_batch(name: str, model, rng, n: int) -> None:
@@ -181,6 +203,9 @@ def main() -> None:
     print("One f evaluation from Python (target: single and batch of one <= 5 us)")
     for name, model in models:
         python_calls(name, model, rng)
+    print("\nOne Jacobian evaluation from Python")
+    for name, model in models:
+        python_jacobian_calls(name, model, rng)
     print("\nLarge batches")
     for name, model in models:
         large_batch(name, model, rng, args.n)

@@ -3,18 +3,34 @@
 Run:  python examples/user_model.py
 
 The torpedo-shaped REMUS 100 (1.33 m, 30.5 kg) in surge, heave and pitch, driven by its
-propeller thrust and its stern planes. Equations and every number from
+propeller thrust and its stern planes, after
 
     T. Prestero, "Verification of a six-degree of freedom simulation model for the
-    REMUS autonomous underwater vehicle", MSc thesis, MIT / WHOI, 2001:
-    ch. 3 (rigid-body and hydrostatic equations; body origin at the centre of
-    buoyancy, so x_b = z_b = x_g = 0) and ch. 4 (the vehicle parameters and the
-    hydrodynamic coefficients with their units; X_prop = 3.86 N, his propeller
-    thrust at the nominal 1500 rpm).
+    REMUS autonomous underwater vehicle", MS thesis, MIT / WHOI, September 2001,
 
 restricted to the vertical plane (v = p = r = 0, phi = psi = 0). State
 (x, z, theta, u, w, q): position (m, z down), pitch (rad), surge and heave speed (m/s)
 and pitch rate (rad/s); inputs: thrust X_prop (N) and stern-plane angle delta_s (rad).
+
+Where every number comes from (the thesis's tables; units in UNITS below):
+
+* W = 299 N and B = 306 N: Table 2.3 (typical values; Table A.1 gives a measured
+  B = 308 N); m = W / g = 30.48 kg (g = 9.81 m/s^2); z_g = 0.0196 m: Table 2.5;
+  I_yy = 3.45 kg m^2: Table 2.6. The body origin is the centre of buoyancy (sec. 3.1),
+  so x_b = z_b = x_g = 0.
+* every hydrodynamic coefficient: Tables 4.2 (forces) and 4.3 (moments), the values
+  derived in ch. 4; X_prop = 3.86 N is the thrust at the nominal 1500 rpm (sec. 4.6.1).
+* the equations: rigid body eq. (3.9), hydrostatics eq. (4.3), external forces and
+  moments eq. (4.49), as in his simulator REMUS.m (Appendix E.1.2).
+
+These are the coefficients as derived, before Prestero fitted his simulator to sea
+trials: sec. 8.1.2 scales some of them (Table 8.2: Z_ww x 10, M_qq x 12.5, and K_pp,
+K_pdot, Y_vv, N_rr), and Appendices B and C list the adjusted set, which does not follow
+Table 8.2 for those two (Z_ww = -131 unchanged, M_qq = -188, i.e. x 20). The M_qq = -188
+(with Z_ww = -1310) of some public REMUS codes, e.g. the coefficient file of Hall &
+Anstee (2011), DSTO-TR-2576, is that adjusted value. Table 4.2 prints Z_uw = -28.6 kg/m
+("body lift force and fin lift") although its parts in Tables C.4 and C.10 sum to
+-38.2 kg/m; the printed value is used.
 
 The model is stated once, in sympy (the block below, under 40 lines); sampledyn derives
 the compiled kernel, the exact Jacobians, the switching functions of the |.| drag terms
@@ -29,7 +45,7 @@ import sampledyn as sd
 # --- the model: Prestero (2001), vertical plane --------------------------------------
 x, z, th, u, w, q = sp.symbols("x z theta u w q")
 X_prop, d_s = sp.symbols("X_prop delta_s")
-coef = {  # Prestero (2001), ch. 4; units in UNITS
+coef = {  # Prestero (2001), Tables 2.3, 2.5, 2.6, 4.2, 4.3 (m = W/g); units in UNITS
     "m": 30.48, "W": 299.0, "B": 306.0, "I_yy": 3.45, "z_g": 0.0196,
     "X_udot": -0.93, "X_uu": -1.62, "X_wq": -35.5, "X_qq": -1.93,
     "Z_wdot": -35.5, "Z_qdot": -1.93, "Z_ww": -131.0, "Z_qq": -0.632, "Z_uq": -5.22,
@@ -83,7 +99,7 @@ def main() -> None:
     gain = np.zeros((2, 6))
     gain[1, 2], gain[1, 5] = 2.0, 1.0  # rad/rad, rad/(rad/s)
     loop = sd.models.ClosedLoop(remus, sd.models.LinearFeedback(gain), name="REMUS + pitch PD")
-    # References: cruise thrust 3.86 N (1500 rpm, Prestero ch. 4), stern planes +-4.5 deg.
+    # References: cruise thrust 3.86 N (1500 rpm, Prestero Table 4.2), stern planes +-4.5 deg.
     signal = sd.signals.Sinusoidal(
         offset=[3.86, 0.0],
         amplitude=[[0.3, 0.0], [np.radians(3.0), np.radians(1.5)]],

@@ -77,30 +77,44 @@ def _dop_stages(rhs, p, t, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytm
 
 
 @njit(cache=True)
-def _crossing_root(
-    sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, idx, ga, gb
+def _switch_inside(
+    sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, c
 ):  # pragma: no cover - compiled
-    """Time c in (0, dt) where switching value ``idx`` crosses zero.
+    """The switching values at tc + c, c in [0, dt], written to ``g``.
 
     The state inside the step is the cubic Hermite interpolant of (y, k0) and
-    (ynew, k1), accurate to O(dt^4): the kink is then placed to about 1e-8 s, and the
-    error of a misplaced kink grows like the cube of that offset. Illinois method.
+    (ynew, k1), accurate to O(dt^4).
     """
-    nx = y.shape[0]
-    a, fa, b, fb = 0.0, ga, dt, gb
+    th = c / dt
+    h00 = (1.0 + 2.0 * th) * (1.0 - th) ** 2
+    h10 = th * (1.0 - th) ** 2
+    h01 = th * th * (3.0 - 2.0 * th)
+    h11 = th * th * (th - 1.0)
+    for j in range(y.shape[0]):
+        ytry[j] = h00 * y[j] + h10 * dt * k0[j] + h01 * ynew[j] + h11 * dt * k1[j]
+    _input_at(hold_row, offset, amp, freq, phase, tc + c, u)
+    sw(tc + c, ytry, u, sp, g)
+
+
+@njit(cache=True)
+def _crossing_root(
+    sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, idx, a, fa, fb
+):  # pragma: no cover - compiled
+    """Time c in (a, dt) where switching value ``idx`` crosses zero, given its values
+    ``fa`` at tc + a and ``fb`` at tc + dt (of opposite signs).
+
+    The values inside the step are taken on the step's Hermite interpolant
+    (:func:`_switch_inside`): the kink is then placed to about 1e-8 s, and the error
+    of a misplaced kink grows like the cube of that offset. Illinois method.
+    """
+    b = dt
     c = dt
     side = 0
     for _ in range(60):
         c = (fa * b - fb * a) / (fa - fb)
-        th = c / dt
-        h00 = (1.0 + 2.0 * th) * (1.0 - th) ** 2
-        h10 = th * (1.0 - th) ** 2
-        h01 = th * th * (3.0 - 2.0 * th)
-        h11 = th * th * (th - 1.0)
-        for j in range(nx):
-            ytry[j] = h00 * y[j] + h10 * dt * k0[j] + h01 * ynew[j] + h11 * dt * k1[j]
-        _input_at(hold_row, offset, amp, freq, phase, tc + c, u)
-        sw(tc + c, ytry, u, sp, g)
+        _switch_inside(
+            sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, c
+        )
         fc = g[idx]
         if fc * fb > 0.0:
             b, fb = c, fc
@@ -160,8 +174,10 @@ def _integrate(
     time): across a breakpoint it goes on, so ``diff`` at the last node of a sampling
     interval is the difference over the whole interval.
 
-    Steps end exactly where a switching value ``sw(t, x, u, sp)`` crosses zero
-    crosses zero, so no step straddles a point where f is not smooth (|v| v, n |n|).
+    Steps end exactly where a switching value ``sw(t, x, u, sp)`` crosses zero, so no
+    step straddles a point where f is not smooth (|v| v, n |n|). A value that is zero
+    (or negligible) at a step's start takes its sign from just inside the step, so a
+    state starting at rest on a kink is tested like any other.
 
     Returns (status, suggested next dt). status 0 ok, 1 step underflow, 2 non-finite.
     """
@@ -183,6 +199,7 @@ def _integrate(
     ga = np.empty(n_sw)
     gb = np.empty(n_sw)
     gr = np.empty(n_sw)
+    gp = np.empty(n_sw)
     dt = dt_init
     for n in range(n_start, n_stop):
         ta = t[n]
@@ -224,11 +241,27 @@ def _integrate(
                 tau = dt
                 if n_sw > 0:
                     sw(tn, ynew, u, sp, gb)
+                    probed = False
                     for k in range(n_sw):
-                        if ga[k] * gb[k] < 0.0 and abs(ga[k]) > 1e-13 * abs(gb[k]):
+                        a, fa = 0.0, ga[k]
+                        if abs(fa) <= 1e-13 * abs(gb[k]):
+                            # The step starts on this kink (a value at exactly 0, as
+                            # from a state at rest, or one just located): its sign at
+                            # the start says nothing, so take the one it has just
+                            # after, at the shortest step a kink may cut (1e-6 dt),
+                            # and look for a crossing after that.
+                            a = 1e-6 * dt
+                            if not probed:
+                                _switch_inside(
+                                    sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset,
+                                    amp, freq, phase, u, ytry, gp, a,
+                                )  # fmt: skip
+                                probed = True
+                            fa = gp[k]
+                        if fa * gb[k] < 0.0:
                             r = _crossing_root(
                                 sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset, amp,
-                                freq, phase, u, ytry, gr, k, ga[k], gb[k],
+                                freq, phase, u, ytry, gr, k, a, fa, gb[k],
                             )  # fmt: skip
                             # A crossing at the very start (the previous step ended
                             # on this kink) must not hide a later one.

@@ -20,6 +20,7 @@ from sampledyn.models import (
     rotation_jacobian_inverse,
     thruster_allocation,
 )
+from sampledyn.models._rigid_body import check_pitch
 
 BUILTIN_TEXT = (resources.files("sampledyn.models") / "vehicles" / "bluerov2_heavy.toml").read_text(
     encoding="utf-8"
@@ -424,6 +425,68 @@ def test_pitch_past_limit_warns(rov: Vehicle) -> None:
     strict = rov.with_params(pitch_limit_deg=30.0)
     with pytest.warns(UserWarning, match="pitch"):
         strict.jacobian(0.0, x, np.zeros((2, 8)))
+
+
+def _pitch_outcome(fn):
+    """What a pitch check does: ('raise', message), ('warn', message, filename) or
+    ('ok',)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            fn()
+        except ValueError as err:
+            return ("raise", str(err))
+    pitch = [w for w in caught if "pitch" in str(w.message)]
+    if pitch:
+        assert len(pitch) == 1 and pitch[0].category is UserWarning
+        return ("warn", str(pitch[0].message), pitch[0].filename)
+    return ("ok",)
+
+
+@pytest.mark.parametrize(
+    "theta_deg", [0.0, -40.0, 79.9, 80.5, -85.0, 89.4, 89.6, -89.9, 90.0, 170.0, 269.7, 400.0]
+)
+def test_pitch_check_of_one_state_is_the_batch_check(rov: Vehicle, theta_deg: float) -> None:
+    # One state, (12,) or (1, 12), is checked on a float with math (the fast path of
+    # f / jacobian from Python); it must raise and warn exactly as the batch check does,
+    # with the warning pointing at the caller. Reference: the state as row 0 of a batch
+    # of two whose other row is level (the array path, sample 0 the worst).
+    x = np.zeros(12)
+    x[4] = np.radians(theta_deg)
+    u = np.zeros(8)
+    two = np.vstack([x, np.zeros(12)])
+    for call in (rov.f, rov.jacobian, rov.input_jacobian):
+        want = _pitch_outcome(lambda call=call: call(0.0, two, np.zeros((2, 8))))
+        for xs, us, t in ((x, u, 0.0), (x[None, :], u[None, :], np.zeros(1))):
+            got = _pitch_outcome(lambda call=call, xs=xs, us=us, t=t: call(t, xs, us))
+            assert got == want, (call.__name__, xs.shape)
+        got32 = _pitch_outcome(lambda call=call: call(0.0, x.astype(np.float32), u))
+        assert got32[0] == want[0]
+    if want[0] == "warn":
+        assert want[2] == __file__  # stacklevel: the user's call, not the library
+
+
+def test_pitch_check_of_a_float_is_the_array_check() -> None:
+    # Near both thresholds (0.5 deg from 90 deg, and 80 deg), to the last bits.
+    rng = np.random.default_rng(7)
+    edges = np.radians([89.5, 90.5, -89.5, 80.0, -80.0, 100.0, 269.5])
+    thetas = np.concatenate(
+        [
+            rng.uniform(-7.0, 7.0, 2000),
+            (edges[:, None] + np.arange(-20, 21)[None, :] * 1e-16).ravel(),
+            (edges[:, None] * (1.0 + np.arange(-8, 9)[None, :] * 2.0**-52)).ravel(),
+            [np.nan, 0.0, -0.0],
+        ]
+    )
+    for theta in thetas:
+        one = _pitch_outcome(lambda th=float(theta): check_pitch(th, 0.5, 80.0))
+        arr = _pitch_outcome(lambda th=theta: check_pitch(np.array([th]), 0.5, 80.0))
+        assert one == arr, theta
+        if one[0] == "ok":
+            assert check_pitch(float(theta), 0.5, 80.0) == check_pitch(np.array([theta]), 0.5, 80.0)
+    with np.errstate(invalid="ignore"):  # not finite: the array path (NaN, no error)
+        for bad in (np.inf, -np.inf):
+            assert check_pitch(float(bad), 0.5, 80.0) == check_pitch(np.array([bad]), 0.5, 80.0)
 
 
 # ------------------------------------------------------------------- bad inputs

@@ -709,6 +709,16 @@ class Vehicle(CompiledModel):
             )
 
     def _guard_x(self, x: Any) -> None:
+        if (
+            type(x) is np.ndarray
+            and x.ndim in (1, 2)
+            and x.size == self.nx
+            and x.shape[-1] == self.nx
+            and x.dtype.kind == "f"
+        ):
+            # One state, (nx,) or (1, nx): its pitch as one float, checked without arrays.
+            self._pitch_guard(x.item(4), stacklevel=4)
+            return
         xa = np.asarray(x, dtype=float)
         if xa.ndim in (1, 2) and xa.shape[-1] == self.nx:
             self._pitch_guard(xa[..., 4], stacklevel=4)  # the caller of f / jacobian
