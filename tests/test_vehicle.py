@@ -413,6 +413,14 @@ def test_pitch_at_90_degrees_raises(rov: Vehicle) -> None:
         rov.J(x[:, :6])
 
 
+def test_a_nan_pitch_does_not_hide_a_singular_one(rov: Vehicle) -> None:
+    x = np.zeros((3, 12))
+    x[0, 4] = np.nan
+    x[2, 4] = np.pi / 2
+    with pytest.raises(ValueError, match=r"sample 2"):
+        rov.f(0.0, x, np.zeros((3, 8)))
+
+
 def test_pitch_past_limit_warns(rov: Vehicle) -> None:
     x = np.zeros((2, 12))
     x[1, 4] = np.radians(85.0)

@@ -205,6 +205,10 @@ def check_pitch(
     if theta.size == 0:
         return False, 0.0
     c = np.abs(np.cos(theta))
+    if np.isnan(c).any():  # a NaN pitch (its f is NaN anyway) must not hide another row
+        if np.isnan(c).all():
+            return False, 0.0
+        c = np.where(np.isnan(c), np.inf, c)
     worst = int(np.argmin(c))
     return _pitch_verdict(float(c[worst]), float(theta[worst]), worst, tolerance_deg, limit_deg)
 
