@@ -31,6 +31,7 @@ _EXPORTS: dict[str, str | None] = {
     "add_noise": ".noise",
     "advise": ".sensitivity",
     "available_methods": ".methods",
+    "discretize": ".discretize",
     "error_norm": ".errors",
     "estimate": ".estimate",
     "estimate_and_predict": ".estimate",
@@ -66,6 +67,7 @@ if TYPE_CHECKING:
     from .methods import RungeKutta as RungeKutta
     from .methods import Tustin as Tustin
     from .methods import available_methods as available_methods
+    from .discretize import discretize as discretize
     from .methods import get_method as get_method
     from .noise import add_noise as add_noise
     from .predict import predict as predict
