@@ -214,6 +214,13 @@ class LoopRun:
     command: np.ndarray
 
 
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """A read-only contiguous copy keeping the dtype (bool, int64)."""
+    a = np.array(a, copy=True, order="C")
+    a.setflags(write=False)
+    return a
+
+
 def _noise_array(
     plant: Any, t: np.ndarray, noise: Any, seed: Any, distribution: str
 ) -> np.ndarray:
@@ -307,7 +314,7 @@ def run_loop(
     U = np.zeros((t.shape[0], nu))
     steps = np.zeros(n_int, dtype=np.int64)
     diff = np.empty((n_int, nx))
-    restart = readonly(np.ones(t.shape[0], dtype=np.bool_))
+    restart = _frozen(np.ones(t.shape[0], dtype=np.bool_))
     zeros1 = readonly(np.zeros(nu))
     zeros2 = readonly(np.zeros((nu, 0)))
     law = controller if isinstance(controller, LinearLaw) else None
@@ -341,9 +348,9 @@ def run_loop(
         lo, hi = np.full(nu, -np.inf), np.full(nu, np.inf)
     args = (
         rhs, readonly(p), sw, readonly(np.asarray(sp, dtype=float)),
-        readonly(np.asarray(sw_io, dtype=np.bool_)), drhs, readonly(np.asarray(dp, dtype=float)),
+        _frozen(np.asarray(sw_io, dtype=np.bool_)), drhs, readonly(np.asarray(dp, dtype=float)),
         readonly(t), X, readonly(noise_arr), Y, cmd, U,
-        readonly(gain), readonly(z_ref), readonly(u_ref), readonly(kinds), readonly(lags),
+        readonly(gain), readonly(z_ref), readonly(u_ref), _frozen(kinds), _frozen(lags),
         readonly(lo), readonly(hi),
     )  # fmt: skip
     dt = float(h)
