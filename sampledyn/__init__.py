@@ -56,6 +56,7 @@ if TYPE_CHECKING:
     from . import signals as signals
     from ._trajectory import Certificate as Certificate
     from ._trajectory import Trajectory as Trajectory
+    from .discretize import discretize as discretize
     from .errors import error_norm as error_norm
     from .errors import local_errors as local_errors
     from .estimate import EstimatedAdamsBashforth as EstimatedAdamsBashforth
@@ -67,7 +68,6 @@ if TYPE_CHECKING:
     from .methods import RungeKutta as RungeKutta
     from .methods import Tustin as Tustin
     from .methods import available_methods as available_methods
-    from .discretize import discretize as discretize
     from .methods import get_method as get_method
     from .noise import add_noise as add_noise
     from .predict import predict as predict

@@ -35,9 +35,7 @@ def _casadi() -> Any:
     try:
         import casadi
     except ImportError as exc:  # pragma: no cover - the test extra installs it
-        raise ImportError(
-            "to_casadi needs CasADi: pip install 'sampledyn[control]'."
-        ) from exc
+        raise ImportError("to_casadi needs CasADi: pip install 'sampledyn[control]'.") from exc
     return casadi
 
 

@@ -13,7 +13,9 @@ def _control() -> Any:
     try:
         import control
     except ImportError as exc:  # pragma: no cover - the test extra installs it
-        raise ImportError("to_control needs python-control: pip install 'sampledyn[control]'.") from exc
+        raise ImportError(
+            "to_control needs python-control: pip install 'sampledyn[control]'."
+        ) from exc
     return control
 
 

@@ -221,9 +221,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def _noise_array(
-    plant: Any, t: np.ndarray, noise: Any, seed: Any, distribution: str
-) -> np.ndarray:
+def _noise_array(plant: Any, t: np.ndarray, noise: Any, seed: Any, distribution: str) -> np.ndarray:
     n, nx = t.shape[0], int(plant.nx)
     if noise is None:
         return np.zeros((n, nx))

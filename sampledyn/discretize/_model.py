@@ -83,6 +83,14 @@ def rollout(t, x, u, p, h, k, out):
             za, zb = zb, za
         for j in range(nx):
             out[r, j] = za[j]
+
+
+@njit(cache=CACHE, error_model="numpy")
+def free_run(t, u, p, h, z0, out):
+    for j in range(z0.shape[0]):
+        out[0, j] = z0[j]
+    for k in range(u.shape[0]):
+        step(t[k], out[k], u[k], p, h, out[k + 1])
 """
 
 
@@ -295,6 +303,40 @@ class DiscreteModel:
             out,
         )
         return out
+
+    def simulate(self, z0: Any, u: Any, t0: float = 0.0) -> np.ndarray:
+        """Free run z_{k+1} = F(z_k, u_k) from z0 with the inputs u, compiled.
+
+        Parameters
+        ----------
+        z0 : ndarray, shape (nz,)
+        u : ndarray, shape (M, nu)
+            u_k for k = 0..M-1 (with ``delay``: the commands).
+        t0 : float
+            Time of z0 (s); t_k = t0 + k h.
+
+        Returns
+        -------
+        ndarray, shape (M + 1, nz): z_0 .. z_M (NaN from where an implicit step fails).
+        """
+        z0, _ = self._vectors(z0, np.zeros(self.nu))
+        u = np.ascontiguousarray(u, dtype=float)
+        if u.ndim != 2 or u.shape[1] != self.nu:
+            raise ValueError(f"`u` must have shape (M, {self.nu}), got {u.shape}.")
+        mod = self._kernels()
+        m = u.shape[0]
+        t = float(t0) + self.h * np.arange(m, dtype=float)
+        c = self._core
+        if self.delay:  # the rule's z runs on the held commands
+            applied = np.vstack([z0[c:][None, :], u[:-1]]) if m else u
+        else:
+            applied = u
+        out = np.empty((m + 1, c))
+        compiled_kernel(mod, "free_run")(t, applied, self._p, self.h, z0[:c].copy(), out)
+        if not self.delay:
+            return out
+        held = np.vstack([z0[c:][None, :], u])
+        return np.hstack([out, held])
 
     def state_from_data(self, measured: Trajectory, n: int) -> np.ndarray:
         """z at sample n built from the data (past states and f at past samples, as

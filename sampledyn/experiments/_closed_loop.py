@@ -339,7 +339,9 @@ def run_closed_loop_study(
                             "rho_design": design.rho_design, "rho_true": design.rho_true,
                         }  # fmt: skip
                         try:
-                            base |= _run_rows(study, vehicle, design, x0, x_trim, u_trim, pair, seed)
+                            base |= _run_rows(
+                                study, vehicle, design, x0, x_trim, u_trim, pair, seed
+                            )
                             base["status"] = "ok"
                         except RuntimeError as exc:  # IntegrationError: the loop diverged
                             base["status"] = f"diverged: {exc}"

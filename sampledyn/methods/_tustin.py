@@ -230,9 +230,7 @@ class Tustin(FixedRule):
             )
         lhs = eye - 0.5 * h * np.asarray(model.jacobian(t1, x, u), dtype=float)
         A = np.linalg.solve(lhs, eye + 0.5 * h * np.asarray(model.jacobian(t0, x0, u)))
-        G = np.asarray(model.input_jacobian(t0, x0, u)) + np.asarray(
-            model.input_jacobian(t1, x, u)
-        )
+        G = np.asarray(model.input_jacobian(t0, x0, u)) + np.asarray(model.input_jacobian(t1, x, u))
         return A, np.linalg.solve(lhs, 0.5 * h * G)
 
     def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):

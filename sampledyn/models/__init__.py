@@ -51,6 +51,8 @@ __all__ = [
     "Vehicle",
     "builtin_vehicles",
     "cache_dir",
+    "kernel_import_line",
+    "load_generated_module",
     "load_vehicle",
     "roll_pitch_hold",
     "rotation_jacobian",
