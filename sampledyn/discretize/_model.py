@@ -21,6 +21,9 @@ from typing import Any
 
 import numpy as np
 
+# The estimation layer registers its rules (Ee, ABe<s>) into the registry, so that
+# naming one here gives the explanation below rather than "unknown method".
+from .. import estimate as _estimate  # noqa: F401
 from .._trajectory import Trajectory
 from ..methods import get_method, uniform_step
 from ..models import (
