@@ -215,7 +215,7 @@ def _discrete_studies(args: argparse.Namespace) -> int:
     from .. import experiments as ex
     from .. import report as rp
 
-    study = (ex.ClosedLoopStudy if closed else ex.MultistepStudy)(**kwargs)
+    study: Any = (ex.ClosedLoopStudy if closed else ex.MultistepStudy)(**kwargs)
     out = writable_dir(args.out or f"out/{args.figure}", "--out")
     out.mkdir(parents=True, exist_ok=True)
     say = (lambda text: print(text, flush=True)) if progress(args) else None

@@ -10,10 +10,19 @@ CasADi function.
 """
 
 from ._casadi import casadi_rhs as casadi_rhs
+from ._loop import EnvelopeExceeded as EnvelopeExceeded
 from ._loop import LinearLaw as LinearLaw
 from ._loop import LoopRun as LoopRun
 from ._loop import run_loop as run_loop
 from ._model import DiscreteModel as DiscreteModel
 from ._model import discretize as discretize
 
-__all__ = ["DiscreteModel", "LinearLaw", "LoopRun", "casadi_rhs", "discretize", "run_loop"]
+__all__ = [
+    "DiscreteModel",
+    "EnvelopeExceeded",
+    "LinearLaw",
+    "LoopRun",
+    "casadi_rhs",
+    "discretize",
+    "run_loop",
+]

@@ -33,7 +33,13 @@ from ..noise import add_noise
 from ..simulate import IntegrationError, integrate_intervals, switching
 from ._model import DiscreteModel
 
-__all__ = ["LinearLaw", "LoopRun", "run_loop"]
+__all__ = ["EnvelopeExceeded", "LinearLaw", "LoopRun", "run_loop"]
+
+
+class EnvelopeExceeded(RuntimeError):
+    """The sampled loop left the state envelope given to :func:`run_loop` (it is
+    diverging); the message names the time and the states."""
+
 
 _F = types.float64
 _A2 = types.float64[:, ::1]
@@ -46,6 +52,7 @@ _LOOP_SIG = types.Tuple((types.int64, _F, types.int64))(
     RO2, RO2, RO2, _I1, _I1, RO1, RO1,  # K, z_ref, u_ref, kinds, lags, u_lo, u_hi
     types.boolean, types.boolean, types.int64, types.int64,  # law_on, delay, n_start, n_stop
     _F, _F, _F, types.int64[::1], _A2, _B1, RO1, RO2,  # rtol, atol, dt, steps, diff, restart, zeros
+    RO1, RO1,  # envelope lo, hi
 )  # fmt: skip
 
 
@@ -53,11 +60,12 @@ _LOOP_SIG = types.Tuple((types.int64, _F, types.int64))(
 def _loop(
     rhs, p, sw, sp, sw_io, drhs, dp, t, X, noise, Y, cmd, U,
     K, z_ref, u_ref, kinds, lags, u_lo, u_hi,
-    law_on, delay, n_start, n_stop, rtol, atol, dt, steps, diff, restart, z1, z2,
+    law_on, delay, n_start, n_stop, rtol, atol, dt, steps, diff, restart, z1, z2, x_lo, x_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Samples n_start..n_stop-1: measure, command, hold, integrate one interval.
 
-    Returns (status, next dt proposal, n reached); status as the integrator's.
+    Returns (status, next dt proposal, n reached); status as the integrator's, or 3
+    when the state leaves the envelope [x_lo, x_hi].
     """
     nx = X.shape[1]
     nu = U.shape[1]
@@ -105,6 +113,9 @@ def _loop(
             return status, dt, n
         if math.isnan(X[n + 1, 0]):
             return 2, dt, n
+        for j in range(nx):
+            if not x_lo[j] <= X[n + 1, j] <= x_hi[j]:
+                return 3, dt, n + 1
     return 0, dt, n_stop
 
 
@@ -255,6 +266,7 @@ def run_loop(
     seed: Any = 0,
     distribution: str = "uniform",
     delay: bool | None = None,
+    envelope: Any = None,
     rtol: float = 1e-10,
     atol: float = 1e-10,
 ) -> LoopRun:
@@ -281,6 +293,10 @@ def run_loop(
         Apply each command one sample late (computation delay); the command before
         the first is ``u_ref``/the first command. Default: the LinearLaw's design
         option, False for a callable.
+    envelope : (lo, hi), optional
+        State bounds, each shape (nx,) (inf where unbounded): the run stops with
+        :class:`EnvelopeExceeded` at the first sample outside (a diverging loop, e.g.
+        a vehicle tumbling, otherwise costs the integrator ever smaller steps).
     rtol, atol : float
         Tolerances of the exact integration between samples.
 
@@ -292,6 +308,8 @@ def run_loop(
     ------
     IntegrationError
         if the plant cannot be integrated (e.g. the loop diverges to NaN).
+    EnvelopeExceeded
+        if the state leaves ``envelope``.
     """
     from ..simulate import _check_period  # the simulator's own check of (h, T)
 
@@ -315,6 +333,12 @@ def run_loop(
     restart = _frozen(np.ones(t.shape[0], dtype=np.bool_))
     zeros1 = readonly(np.zeros(nu))
     zeros2 = readonly(np.zeros((nu, 0)))
+    if envelope is None:
+        x_lo, x_hi = np.full(nx, -np.inf), np.full(nx, np.inf)
+    else:
+        x_lo, x_hi = (np.ascontiguousarray(a, dtype=float) for a in envelope)
+        if x_lo.shape != (nx,) or x_hi.shape != (nx,):
+            raise ValueError(f"`envelope` must be (lo, hi) of shape ({nx},) each.")
     law = controller if isinstance(controller, LinearLaw) else None
     if law is None and not callable(controller):
         raise TypeError(
@@ -355,7 +379,7 @@ def run_loop(
     if law is not None:
         status, dt, reached = _loop(
             *args, True, delay, 0, t.shape[0], float(rtol), float(atol), dt, steps, diff,
-            restart, zeros1, zeros2,
+            restart, zeros1, zeros2, readonly(x_lo), readonly(x_hi),
         )  # fmt: skip
     else:
         status, reached = 0, 0
@@ -370,10 +394,18 @@ def run_loop(
             cmd[n] = u
             status, dt, reached = _loop(
                 *args, False, delay, n, n + 1, float(rtol), float(atol), dt, steps, diff,
-                restart, zeros1, zeros2,
+                restart, zeros1, zeros2, readonly(x_lo), readonly(x_hi),
             )  # fmt: skip
             if status != 0:
                 break
+    if status == 3:
+        x = X[reached]
+        out = [
+            f"{plant.state_names[j]} = {x[j]:.4g}" for j in np.flatnonzero((x < x_lo) | (x > x_hi))
+        ]
+        raise EnvelopeExceeded(
+            f"the sampled loop left the state envelope at t={t[reached]:g} s ({', '.join(out)})."
+        )
     if status != 0:
         what = "step size underflow" if status == 1 else "NaN or inf in the state"
         raise IntegrationError(

@@ -100,7 +100,7 @@ def free_run(t, u, p, h, z0, out):
 def _rule(method: Any) -> tuple[Any, tuple[tuple[str, int], ...]]:
     """The rule object and its state layout, or a ValueError saying why the rule is
     not a discrete-time system."""
-    rule = get_method(method)
+    rule: Any = get_method(method)
     if rule.estimates_params:
         raise ValueError(
             f"`method` {rule.name!r} estimates the model's parameters on the data it "
@@ -370,6 +370,32 @@ class DiscreteModel:
         if self.delay:
             z[self._core :] = measured.u[n - 1]
         return z
+
+    def state_from_history(self, x: Any, u: Any, held: Any = None, t: float = 0.0) -> np.ndarray:
+        """z from the last samples, newest first: ``x[i] = x_{n-i}``, ``u[i] = u_{n-i}``
+        (the inputs applied over [t_{n-i}, t_{n-i+1}); u[0] is not used), shapes
+        (history, nx) and (history, nu); with ``delay`` also ``held`` (the command
+        applied over the next interval). Shape (nz,). For a controller that keeps its
+        own history (an MPC); :meth:`state_from_data` does the same on a Trajectory."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        if x.shape != (self.history, self.nx) or u.shape != (self.history, self.nu):
+            raise ValueError(
+                f"`x` and `u` must have shapes ({self.history}, {self.nx}) and "
+                f"({self.history}, {self.nu}) (newest first), got {x.shape} and {u.shape}."
+            )
+        blocks = []
+        for kind, lag in self.layout:
+            if kind == "x":
+                blocks.append(x[lag])
+            else:
+                tk = float(t) - lag * self.h
+                blocks.append(np.asarray(self.model.f(tk, x[lag], u[lag]), dtype=float))
+        if self.delay:
+            if held is None:
+                raise ValueError("with `delay`, `held` (the command applied next) is needed.")
+            blocks.append(np.asarray(held, dtype=float).reshape(self.nu))
+        return np.concatenate(blocks)
 
     def steady_state(self, x: Any, u: Any, t: float = 0.0) -> np.ndarray:
         """z of a constant history at (x, u), shape (nz,): for E, RK_s and T z = x;

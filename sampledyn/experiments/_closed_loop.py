@@ -12,6 +12,10 @@ error after the transient) and the control effort. A design on the exact zero-or
 hold linearisation (``ZOH``: the matrix exponential, i.e. a perfect one-step model of
 the linearised plant) is the reference row.
 
+A run that leaves the envelope (roll or pitch beyond 80 deg, a velocity beyond 5 m/s or
+5 rad/s, depth 50 m off) stops there and is reported as diverged: such a loop tumbles
+or runs away, and integrating it exactly to the end would only cost time.
+
 The loop over designs is self-contained (no process pool of its own): one design
 costs a trim, a linearisation and a Riccati solution (milliseconds), one run a
 compiled loop of T/h sampling intervals with the control law evaluated in compiled
@@ -277,6 +281,16 @@ def _vehicle(name: str, buoyancy_pct: float) -> Any:
         return load_vehicle(name).with_buoyancy(buoyancy_pct)
 
 
+# The envelope a run must stay in (deviation from the trim; x, y free): beyond it the
+# loop has diverged (tumbling, or running away in depth), and the run stops there.
+_ENVELOPE = (np.inf, np.inf, 50.0, 1.4, 1.4, np.inf, 5.0, 5.0, 5.0, 5.0, 5.0, 5.0)
+
+
+def _envelope(x_trim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    dev = np.array(_ENVELOPE)
+    return x_trim - dev, x_trim + dev
+
+
 def _run_rows(
     study: ClosedLoopStudy, vehicle: Any, design: Design, x0: np.ndarray, x_trim: np.ndarray,
     u_trim: np.ndarray, pair: tuple[float, float], seed: int,
@@ -289,6 +303,7 @@ def _run_rows(
         x0,
         noise=pair if any(pair) else None,
         seed=np.random.SeedSequence([study.base_seed, seed]),
+        envelope=_envelope(x_trim),
     )
     t = run.exact.t
     after = t >= study.transient
@@ -303,6 +318,25 @@ def _run_rows(
     return row
 
 
+def _one_step_errors(
+    study: ClosedLoopStudy, vehicle: Any, h: float, x0: np.ndarray, x_trim: np.ndarray,
+    u_trim: np.ndarray,
+) -> dict[str, float]:  # fmt: skip
+    """How good each rule is as a one-step model on this loop's own motion: rms (over
+    the transient, the states z..r) of its one-step prediction error on the exact
+    samples of the noise-free loop of the ZOH design (the same data for every rule)."""
+    ref = design_lqr(vehicle, "ZOH", h, x_trim, u_trim)
+    run = run_loop(vehicle, ref.law, study.transient, h, x0, envelope=_envelope(x_trim))
+    out = {}
+    for method in study.methods:
+        if method == "ZOH":
+            continue
+        err = discretize(vehicle, method, h).rollout(run.exact, 1) - run.exact.x
+        err = err[np.isfinite(err).all(axis=1), 2:]
+        out[method] = float(np.sqrt(np.mean(np.sum(err * err, axis=1))))
+    return out
+
+
 def run_closed_loop_study(
     study: ClosedLoopStudy, progress: Callable[[str], None] | None = None
 ) -> list[dict[str, Any]]:
@@ -310,10 +344,11 @@ def run_closed_loop_study(
 
     Row keys: vehicle, method, h, eta_pct, v_pct, seed, rho_design (closed-loop
     spectral radius on the design model), rho_true (on the exact plant's zero-order-
-    hold linearisation), depth/heading/surge _p95 and _max (m, rad,
-    m/s, after the transient), effort_rms (rms of the applied rpm minus the trim, in
-    n_max), saturated (fraction of thruster-samples at n_max), status ("ok" or the
-    failure, e.g. the loop diverged).
+    hold linearisation), one_step_rms (the rule's one-step prediction error on the
+    noise-free transient of the ZOH design's loop; NaN for ZOH), depth/heading/surge
+    _p95 and _max (m, rad, m/s, after the transient), effort_rms (rms of the applied
+    rpm minus the trim, in n_max), saturated (fraction of thruster-samples at n_max),
+    status ("ok" or the failure, e.g. the loop diverged).
     """
     rows: list[dict[str, Any]] = []
     for vname in study.vehicles:
@@ -323,6 +358,7 @@ def run_closed_loop_study(
         x0[2] += study.offset[0]
         x0[5] += study.offset[1]
         for h in study.h_values:
+            one_step = _one_step_errors(study, vehicle, h, x0, x_trim, u_trim)
             for method in study.methods:
                 design = design_lqr(vehicle, method, h, x_trim, u_trim, delay=study.delay)
                 if progress is not None:
@@ -337,13 +373,14 @@ def run_closed_loop_study(
                             "vehicle": vname, "method": method, "h": float(h),
                             "eta_pct": float(pair[0]), "v_pct": float(pair[1]), "seed": seed,
                             "rho_design": design.rho_design, "rho_true": design.rho_true,
+                            "one_step_rms": one_step.get(method, float("nan")),
                         }  # fmt: skip
                         try:
                             base |= _run_rows(
                                 study, vehicle, design, x0, x_trim, u_trim, pair, seed
                             )
                             base["status"] = "ok"
-                        except RuntimeError as exc:  # IntegrationError: the loop diverged
+                        except RuntimeError as exc:  # EnvelopeExceeded, IntegrationError
                             base["status"] = f"diverged: {exc}"
                         rows.append(base)
     return rows
@@ -370,6 +407,7 @@ def summarize_closed_loop(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         )
         cell["rho_design"] = rs[0]["rho_design"]
         cell["rho_true"] = rs[0]["rho_true"]
+        cell["one_step_rms"] = rs[0]["one_step_rms"]
         cell["runs"] = len(rs)
         cell["diverged"] = len(rs) - len(ok)
         for m in _METRICS:

@@ -97,8 +97,12 @@ def run_multistep_study(
                         pos, vel = _rms_norm(err[:, :6]), _rms_norm(err[:, 6:])
                         rows.append(
                             base
-                            | {"k": k, "pos_rms": pos, "vel_rms": vel,
-                               "diverged": not max(pos, vel) < 1e3}  # fmt: skip
+                            | {
+                                "k": k,
+                                "pos_rms": pos,
+                                "vel_rms": vel,
+                                "diverged": not max(pos, vel) < 1e3,
+                            }  # fmt: skip
                         )
                     z0 = dm.state_from_data(meas, start)
                     with np.errstate(all="ignore"):

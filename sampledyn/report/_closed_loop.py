@@ -20,12 +20,13 @@ def _fmt(v: Any) -> str:
 
 
 def closed_loop_table(summary: list[dict[str, Any]]) -> str:
-    """Markdown table: one row per (vehicle, h, method, noise pair) with the design's
-    spectral radii, the residual sets (95th / 100th percentile after the transient) and
-    the effort."""
+    """Markdown table: one row per (vehicle, h, method, noise pair) with the rule's
+    one-step error on the loop's motion, the design's spectral radii, the residual sets
+    (95th / 100th percentile after the transient) and the effort."""
     cols = (
         ("vehicle", "vehicle"), ("h", "h (s)"), ("method", "design"),
-        ("noise", "noise eta/v %"), ("rho_design", "rho design"), ("rho_true", "rho exact"),
+        ("noise", "noise eta/v %"), ("one_step_rms", "one-step err"),
+        ("rho_design", "rho design"), ("rho_true", "rho exact"),
         ("depth_p95", "depth p95 (m)"), ("depth_max", "depth max (m)"),
         ("heading_p95", "heading p95 (rad)"), ("heading_max", "heading max (rad)"),
         ("surge_p95", "surge p95 (m/s)"), ("effort_rms", "effort rms (n_max)"),
