@@ -51,8 +51,10 @@ q = np.zeros(len(keep))
 q[:10] = 1 / np.square([0.5, 0.2, 0.2, 0.3, 0.2, 0.3, 0.3, 0.5, 0.5, 0.5])
 R = np.eye(vehicle.nu) / (0.5 * vehicle.n_max) ** 2
 K, _, poles = control.dlqr(A, B, np.diag(q), R)
-print(f"{vehicle.name}, {rule}, h = {h} s: nz = {model.nz}, |closed-loop poles| <= "
-      f"{np.abs(poles).max():.4f} on the design model")
+print(
+    f"{vehicle.name}, {rule}, h = {h} s: nz = {model.nz}, |closed-loop poles| <= "
+    f"{np.abs(poles).max():.4f} on the design model"
+)
 
 gain = np.zeros((vehicle.nu, model.nz))
 gain[:, keep] = -K
@@ -66,8 +68,11 @@ run = run_loop(vehicle, law, 300.0, h, x0, noise=(2, 2), seed=0)
 after = run.exact.t >= 100.0
 for idx, name, unit in ((2, "depth", "m"), (5, "heading", "rad"), (6, "surge", "m/s")):
     err = np.abs(run.exact.x[after, idx] - x_star[idx])
-    print(f"  {name:8s} error after 100 s: 95th pct {np.percentile(err, 95):.3g} {unit}, "
-          f"max {err.max():.3g} {unit}")
+    print(
+        f"  {name:8s} error after 100 s: 95th pct {np.percentile(err, 95):.3g} {unit}, "
+        f"max {err.max():.3g} {unit}"
+    )
 applied = np.clip(run.exact.u[after], -vehicle.n_max, vehicle.n_max)
-print(f"  effort: rms(n - n*) = {np.sqrt(np.mean((applied - u_star) ** 2)) / vehicle.n_max:.3g}"
-      " n_max")
+print(
+    f"  effort: rms(n - n*) = {np.sqrt(np.mean((applied - u_star) ** 2)) / vehicle.n_max:.3g} n_max"
+)

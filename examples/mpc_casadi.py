@@ -54,12 +54,16 @@ for k in range(N):
     cost += ca.dot(w * dx, dx) + ca.dot(du, du)
     g.append(Z[:, k + 1] - F(Z[:, k], U[:, k]))
 nlp = {"x": ca.veccat(Z, U), "p": z0, "f": cost, "g": ca.vertcat(*g)}
-solver = ca.nlpsol("mpc", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": 0,
-                                         "ipopt.sb": "yes", "ipopt.max_iter": 100})
+solver = ca.nlpsol(
+    "mpc",
+    "ipopt",
+    nlp,
+    {"ipopt.print_level": 0, "print_time": 0, "ipopt.sb": "yes", "ipopt.max_iter": 100},
+)
 n_var = nz * (N + 1) + nu * N
 lbx = np.full(n_var, -np.inf)
 ubx = np.full(n_var, np.inf)
-lbx[nz * (N + 1):], ubx[nz * (N + 1):] = -n_max, n_max
+lbx[nz * (N + 1) :], ubx[nz * (N + 1) :] = -n_max, n_max
 guess = np.concatenate([np.tile(model.steady_state(x_star, u_star), N + 1), np.tile(u_star, N)])
 history: list[tuple[np.ndarray, np.ndarray]] = []
 solve_times: list[float] = []
@@ -76,7 +80,7 @@ def mpc(t: float, y: np.ndarray) -> np.ndarray:
     sol = solver(x0=guess, p=z, lbx=lbx, ubx=ubx, lbg=0, ubg=0)
     solve_times.append(time.perf_counter() - t0)
     guess = np.asarray(sol["x"]).ravel()
-    u = guess[nz * (N + 1): nz * (N + 1) + nu]
+    u = guess[nz * (N + 1) : nz * (N + 1) + nu]
     history[-1] = (y, u)
     return u
 
@@ -88,10 +92,14 @@ t0 = time.perf_counter()
 run = run_loop(vehicle, mpc, 60.0, h, x0, noise=(2, 2), seed=0)
 wall = time.perf_counter() - t0
 after = run.exact.t >= 30.0
-print(f"MPC on {rule}, h = {h} s, horizon {N} ({N * h:g} s), nz = {nz}: {len(solve_times)} "
-      f"solves, median {1e3 * np.median(solve_times):.0f} ms, max "
-      f"{1e3 * np.max(solve_times):.0f} ms; run {wall:.1f} s")
+print(
+    f"MPC on {rule}, h = {h} s, horizon {N} ({N * h:g} s), nz = {nz}: {len(solve_times)} "
+    f"solves, median {1e3 * np.median(solve_times):.0f} ms, max "
+    f"{1e3 * np.max(solve_times):.0f} ms; run {wall:.1f} s"
+)
 for idx, name, unit in ((2, "depth", "m"), (5, "heading", "rad"), (6, "surge", "m/s")):
     err = np.abs(run.exact.x[after, idx] - x_star[idx])
-    print(f"  {name:8s} error after 30 s: 95th pct {np.percentile(err, 95):.3g} {unit}, "
-          f"max {err.max():.3g} {unit}")
+    print(
+        f"  {name:8s} error after 30 s: 95th pct {np.percentile(err, 95):.3g} {unit}, "
+        f"max {err.max():.3g} {unit}"
+    )
