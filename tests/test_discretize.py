@@ -411,3 +411,49 @@ def test_envelope_stops_a_diverging_loop(rexrov):
         EnvelopeExceeded, match=r"left the state envelope at t=[\d.]+ s \(z = 1\.\d+\)"
     ):
         run_loop(rexrov, full_down, 60.0, 0.5, np.zeros(12), envelope=(lo, hi))
+
+
+def test_noise_gain_feeds_dlqe(rexrov):
+    """A Kalman filter for the AB2 model from its noise gain: python-control's dlqe
+    accepts (A_d, G, C) and returns a stable estimator."""
+    control = pytest.importorskip("control")
+    from sampledyn.experiments import trim
+    from sampledyn.noise import noise_amplitudes
+
+    x, u = trim(rexrov, 0.5, 5.0, 0.5)
+    d = discretize(rexrov, "AB2", 0.1)
+    z = d.steady_state(x, u)
+    A, _ = d.linearize(z, u)
+    G = d.noise_gain(z, u)
+    assert G.shape == (d.nz, d.history * d.nx)
+    keep = [b * 12 + i for b in range(2) for i in range(2, 12)]
+    gk = [lag * 12 + i for lag in range(2) for i in range(2, 12)]
+    a = noise_amplitudes(rexrov.state_units, 2, 2)[2:]
+    QN = np.kron(np.eye(2), np.diag(a**2 / 3))
+    C = d.output_matrix()[2:][:, keep]
+    L, _, E = control.dlqe(A[np.ix_(keep, keep)], G[np.ix_(keep, gk)], C, QN, np.diag(a**2 / 3))
+    assert L.shape == (len(keep), 10) and np.abs(E).max() < 1
+
+
+def _spring(t, x, u, p, out):
+    out[0] = x[1]
+    out[1] = -p[0] * x[0] - p[1] * x[1] + u[0]
+
+
+def test_function_model_kernels_compile_in_process():
+    """A FunctionModel's kernel cannot be imported by name: the discrete model is
+    compiled in this process with the kernel injected, and steps like RK4 by hand."""
+    from sampledyn.models import FunctionModel
+
+    model = FunctionModel(_spring, 2, 1, params={"k": 4.0, "c": 0.3})
+    d = discretize(model, "RK4", 0.1)
+    z, u, h = np.array([1.0, -0.5]), np.array([0.2]), 0.1
+
+    def f(x):
+        return np.array([x[1], -4.0 * x[0] - 0.3 * x[1] + u[0]])
+
+    k1 = f(z)
+    k2 = f(z + h / 2 * k1)
+    k3 = f(z + h / 2 * k2)
+    k4 = f(z + h * k3)
+    np.testing.assert_allclose(d.step(z, u), z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), rtol=1e-15)
