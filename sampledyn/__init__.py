@@ -31,6 +31,7 @@ _EXPORTS: dict[str, str | None] = {
     "add_noise": ".noise",
     "advise": ".sensitivity",
     "available_methods": ".methods",
+    "discretize": ".discretize",
     "error_norm": ".errors",
     "estimate": ".estimate",
     "estimate_and_predict": ".estimate",
@@ -55,6 +56,7 @@ if TYPE_CHECKING:
     from . import signals as signals
     from ._trajectory import Certificate as Certificate
     from ._trajectory import Trajectory as Trajectory
+    from .discretize import discretize as discretize
     from .errors import error_norm as error_norm
     from .errors import local_errors as local_errors
     from .estimate import EstimatedAdamsBashforth as EstimatedAdamsBashforth

@@ -27,7 +27,7 @@ from .models import RHS_TYPE, RO1, RO2, readonly
 from .models import index_switch as _index_switch
 from .signals import Signal
 
-__all__ = ["IntegrationError", "simulate"]
+__all__ = ["IntegrationError", "integrate_intervals", "simulate", "switching"]
 
 _NS = _dop.N_STAGES
 _A = np.ascontiguousarray(_dop.A[:_NS, :_NS])
@@ -753,3 +753,9 @@ def _nodes(signal: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         )
     sample_node = np.flatnonzero(order < t.shape[0])
     return nodes, sample_node
+
+
+# The compiled interval integrator under a public name: a sampled loop integrates one
+# sampling interval at a time, with the held input computed from the samples before it
+# (sampledyn.discretize.run_loop calls it from compiled code).
+integrate_intervals = _integrate

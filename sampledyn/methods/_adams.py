@@ -189,6 +189,33 @@ def lagged_jacobians(
     return phi
 
 
+# z = (x_n, f_{n-1}, ..., f_{n-s+1}); the arithmetic of _ab_fir, so that one step from
+# the z of sampled data is the one-step prediction, bit for bit.
+_AB_STEP = """
+S = {s}
+_W = np.array({w!r})
+
+
+@njit(cache=CACHE, error_model="numpy")
+def step(t, z, u, p, h, out):
+    nx = z.shape[0] // S
+    f0 = np.empty(nx)
+    rhs(t, z[:nx], u, p, f0)
+    for j in range(nx):
+        o = z[j]
+        o += (h * _W[0]) * f0[j]
+        for i in range(1, S):
+            o += (h * _W[i]) * z[i * nx + j]
+        out[j] = o
+    for i in range(S - 1, 1, -1):
+        for j in range(nx):
+            out[i * nx + j] = z[(i - 1) * nx + j]
+    if S > 1:
+        for j in range(nx):
+            out[nx + j] = f0[j]
+"""
+
+
 @dataclass(frozen=True)
 class AdamsRule(FixedRule):
     """What the rules that weight an f-history with the AB_s coefficients share (AB_s,
@@ -312,6 +339,56 @@ class AdamsBashforth(AdamsRule):
     ) -> np.ndarray:
         """``nabla^s f`` along the samples, shape (N - s, nx)."""
         return np.diff(sample_f(model, data, cache), n=self.order, axis=0)
+
+    # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
+
+    @property
+    def state_layout(self) -> tuple[tuple[str, int], ...]:
+        """The discrete state z = (x_n, f_{n-1}, ..., f_{n-s+1}): block i holds "x" or
+        "f" (f at the sample, with its input) at lag i; each block has nx entries."""
+        return (("x", 0),) + tuple(("f", i) for i in range(1, self.order))
+
+    def step_source(self) -> str:
+        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``np``), the
+        arithmetic of :func:`ab_filter` (bit-identical one-step predictions)."""
+        return _AB_STEP.format(s=self.order, w=[float(w) for w in self.weights])
+
+    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
+        """z+ from the blocks of z in vector arithmetic (numpy or CasADi): x_{n+1} =
+        x_n + h sum_i a_i f_{n-i}, then the f-history shifted by one."""
+        f0 = f(t, blocks[0], u)
+        w = self.weights
+        x = blocks[0] + (h * w[0]) * f0
+        for i in range(1, self.order):
+            x = x + (h * w[i]) * blocks[i]
+        return [x, f0, *blocks[1:-1]][: self.order]
+
+    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
+        """(A_d, B_d) of z+ = F(z, u), shapes (s nx, s nx) and (s nx, nu), from the
+        model's exact df/dx = F and df/du = G at (x_n, u_n): first block row
+        ``[I + h a_0 F, h a_1 I, ..., h a_{s-1} I]``, ``h a_0 G``; the new f-block
+        ``[F, 0, ...]``, G; the older f-blocks shift."""
+        nx, s, w = model.nx, self.order, self.weights
+        x = z[:nx]
+        F = np.asarray(model.jacobian(t, x, u), dtype=float)
+        G = np.asarray(model.input_jacobian(t, x, u), dtype=float)
+        A = np.zeros((s * nx, s * nx))
+        B = np.zeros((s * nx, G.shape[1]))
+        A[:nx, :nx] = np.eye(nx) + (h * w[0]) * F
+        B[:nx] = (h * w[0]) * G
+        for i in range(1, s):
+            A[:nx, i * nx : (i + 1) * nx] = (h * w[i]) * np.eye(nx)
+        if s > 1:
+            A[nx : 2 * nx, :nx] = F
+            B[nx : 2 * nx] = G
+        for i in range(2, s):
+            A[i * nx : (i + 1) * nx, (i - 1) * nx : i * nx] = np.eye(nx)
+        return A, B
+
+    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
+        """z of a constant history at (x, u): (x, f, ..., f), f = f(t, x, u)."""
+        f = np.asarray(model.f(float(t), x, u), dtype=float)
+        return np.concatenate([x] + [f] * (self.order - 1))
 
 
 def Euler() -> AdamsBashforth:  # noqa: N802 - reads as a class in user code

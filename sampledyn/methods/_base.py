@@ -33,9 +33,24 @@ which rule it is lives in the rule's own class; every other layer asks the objec
 Prediction takes the sample times ``data.t`` as they come: a rule decides itself
 whether it can work on a non-uniform grid. The fixed-step rules here cannot yet and
 raise (:func:`uniform_step`); variable-step versions belong in the rules, not in their
-callers. A ``linearize(model, z, u, h)`` for the discrete-time system view
-(``sampledyn.discretize``) will join the protocol with that layer;
-``prediction_jacobians`` is its state part on sampled data.
+callers.
+
+Rules that are discrete-time state-space systems z+ = F(z, u) (every fixed rule but
+ABj_s) also answer, for :func:`sampledyn.discretize`:
+
+=====================  ================================================================
+``state_layout``       what z holds: blocks of nx entries, ("x", lag) a past state,
+                       ("f", lag) f at a past sample (AB_s); raises NotImplementedError
+                       with the reason for a rule that is no such system (ABj_s)
+``step_source()``      numba source of ``step(t, z, u, p, h, out)`` (the same arithmetic
+                       as ``predict``), compiled by ``sampledyn.discretize`` against the
+                       model's kernel
+``step_blocks``        the same step in vector arithmetic (numpy or CasADi symbols)
+``linearize``          (A_d, B_d) at (z, u), exact from df/dx and df/du
+``steady_state``       z of a constant history at (x, u)
+=====================  ================================================================
+
+``prediction_jacobians`` is the state part of ``linearize`` on sampled data.
 
 The ``cache`` argument of ``predict`` and ``prediction_jacobians`` is a plain dict the
 caller may pass and keep for several rules on the same data: f (and df/dx) at the

@@ -56,6 +56,29 @@ def held_history(
     return out
 
 
+# z = (x_n, x_{n-1}, ..., x_{n-s+1}); the arithmetic of predict.
+_ABU_STEP = """
+S = {s}
+_W = np.array({w!r})
+
+
+@njit(cache=CACHE, error_model="numpy")
+def step(t, z, u, p, h, out):
+    nx = z.shape[0] // S
+    g = np.empty(nx)
+    for j in range(nx):
+        out[j] = z[j]
+    for i in range(S):
+        rhs(t - i * h, z[i * nx : (i + 1) * nx], u, p, g)
+        c = h * _W[i]
+        for j in range(nx):
+            out[j] += c * g[j]
+    for i in range(S - 1, 0, -1):
+        for j in range(nx):
+            out[i * nx + j] = z[(i - 1) * nx + j]
+"""
+
+
 @dataclass(frozen=True)
 class HeldInputAdamsBashforth(AdamsRule):
     """ABu_s: Adams-Bashforth of order s with the f-history taken at the current input.
@@ -152,6 +175,52 @@ class HeldInputAdamsBashforth(AdamsRule):
         f = sample_f(model, data, cache)
         oldest_first = [held_history(model.f, f, data, s, i) for i in range(s, -1, -1)]
         return np.diff(np.stack(oldest_first), n=s, axis=0)[0]
+
+    # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
+
+    @property
+    def state_layout(self) -> tuple[tuple[str, int], ...]:
+        """The discrete state z = (x_n, x_{n-1}, ..., x_{n-s+1}): the past states (the
+        f-history is taken at the current input, so it cannot be stored)."""
+        return tuple(("x", i) for i in range(self.order))
+
+    def step_source(self) -> str:
+        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``np``), the
+        arithmetic of :meth:`predict`."""
+        return _ABU_STEP.format(s=self.order, w=[float(w) for w in self.weights])
+
+    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
+        """z+ from the blocks of z in vector arithmetic (numpy or CasADi): x_{n+1} =
+        x_n + h sum_i a_i f(t_{n-i}, x_{n-i}, u_n), then the states shifted by one."""
+        w = self.weights
+        x = blocks[0]
+        for i in range(self.order):
+            x = x + (h * w[i]) * f(t - i * h, blocks[i], u)
+        return [x, *blocks[:-1]]
+
+    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
+        """(A_d, B_d), shapes (s nx, s nx) and (s nx, nu): first block row
+        ``[I + h a_0 F_0, h a_1 F_1, ...]`` with ``F_i = df/dx(x_{n-i}, u_n)`` and
+        ``B = h sum_i a_i df/du(x_{n-i}, u_n)``; the older states shift."""
+        nx, s, w = model.nx, self.order, self.weights
+        xs = np.asarray(z, dtype=float).reshape(s, nx)
+        ts = float(t) - h * np.arange(s)
+        us = np.broadcast_to(np.asarray(u, dtype=float), (s, model.nu))
+        F = np.asarray(model.jacobian(ts, xs, us), dtype=float)
+        G = np.asarray(model.input_jacobian(ts, xs, us), dtype=float)
+        A = np.zeros((s * nx, s * nx))
+        for i in range(s):
+            A[:nx, i * nx : (i + 1) * nx] = (h * w[i]) * F[i]
+        A[:nx, :nx] += np.eye(nx)
+        for i in range(1, s):
+            A[i * nx : (i + 1) * nx, (i - 1) * nx : i * nx] = np.eye(nx)
+        B = np.zeros((s * nx, model.nu))
+        B[:nx] = h * np.einsum("i,iab->ab", w, G)
+        return A, B
+
+    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
+        """z of a constant history at (x, u): (x, ..., x)."""
+        return np.tile(np.asarray(x, dtype=float), self.order)
 
 
 register_family(

@@ -85,6 +85,19 @@ class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
 
     FAMILY: ClassVar[str] = "ABj"
 
+    NO_STATE_SPACE: ClassVar[str] = (
+        "its f-history is rebuilt (an implicit sweep) only where the input changed inside "
+        "the history, a switch on past inputs: z+ = F(z, u) would not be one smooth map, "
+        "and it has no Jacobian across a jump. Use ABu<s> (the same rule where the input "
+        "is constant over the history) or AB<s>"
+    )
+
+    @property
+    def state_layout(self) -> tuple[tuple[str, int], ...]:
+        """Not a discrete-time state-space system: raises NotImplementedError (why:
+        :attr:`NO_STATE_SPACE`)."""
+        raise NotImplementedError(f"{self.name}: {self.NO_STATE_SPACE}.")
+
     # -- the rule --------------------------------------------------------------------
 
     def _history(

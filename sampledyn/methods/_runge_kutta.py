@@ -123,6 +123,36 @@ TABLEAUX: dict[int, ButcherTableau] = {
 }
 
 
+# z = x_n, the input held over the interval; the arithmetic of RungeKutta.predict.
+_RK_STEP = """
+S = {s}
+_A = np.array({a!r})
+_B = np.array({b!r})
+_C = np.array({c!r})
+
+
+@njit(cache=CACHE, error_model="numpy")
+def step(t, z, u, p, h, out):
+    nx = z.shape[0]
+    K = np.empty((S, nx))
+    xi = np.empty(nx)
+    for i in range(S):
+        for j in range(nx):
+            xi[j] = z[j]
+        for m in range(i):
+            if _A[i, m] != 0.0:
+                c = h * _A[i, m]
+                for j in range(nx):
+                    xi[j] += c * K[m, j]
+        rhs(t + _C[i] * h, xi, u, p, K[i])
+    for j in range(nx):
+        incr = 0.0
+        for i in range(S):
+            incr += _B[i] * K[i, j]
+        out[j] = z[j] + h * incr
+"""
+
+
 @dataclass(frozen=True)
 class RungeKutta(FixedRule):
     """Explicit Runge-Kutta rule of order 1-4 (RK1 is Euler).
@@ -264,6 +294,73 @@ class RungeKutta(FixedRule):
         phi = self._stages(model, data, signal, derivatives=True)[1]
         assert phi is not None
         return phi
+
+    # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
+
+    @property
+    def state_layout(self) -> tuple[tuple[str, int], ...]:
+        """z = x_n: one block, the state."""
+        return (("x", 0),)
+
+    def step_source(self) -> str:
+        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``np``), the
+        arithmetic of :meth:`predict` with the input held over the interval."""
+        tab = self.tableau
+        return _RK_STEP.format(
+            s=tab.stages,
+            a=[[float(v) for v in row] for row in tab.a],
+            b=[float(v) for v in tab.b],
+            c=[float(v) for v in tab.c],
+        )
+
+    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
+        """x_{n+1} in vector arithmetic (numpy or CasADi), the input held."""
+        tab = self.tableau
+        x0 = blocks[0]
+        ks: list[Any] = []
+        for i in range(tab.stages):
+            xi = x0
+            for j in range(i):
+                if tab.a[i][j] != 0:
+                    xi = xi + (h * float(tab.a[i][j])) * ks[j]
+            ks.append(f(t + float(tab.c[i]) * h, xi, u))
+        incr = float(tab.b[0]) * ks[0]
+        for bi, k in zip(tab.b[1:], ks[1:], strict=True):
+            incr = incr + float(bi) * k
+        return [x0 + h * incr]
+
+    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
+        """(A_d, B_d), shapes (nx, nx), (nx, nu), forward mode through the stages of
+        eq. (8) with the input held: ``dk_i = F_i (I + h sum_j a_ij dk_j)``, ``dku_i =
+        F_i h sum_j a_ij dku_j + G_i``; ``A = I + h sum b_i dk_i``, ``B = h sum b_i
+        dku_i`` (F_i, G_i: df/dx, df/du at stage i)."""
+        tab = self.tableau
+        x0 = np.asarray(z, dtype=float)
+        u = np.asarray(u, dtype=float)
+        eye = np.eye(model.nx)
+        ks: list[np.ndarray] = []
+        dks: list[np.ndarray] = []
+        dus: list[np.ndarray] = []
+        for i in range(tab.stages):
+            xi, dxi, dui = x0.copy(), eye.copy(), np.zeros((model.nx, model.nu))
+            for j in range(i):
+                if tab.a[i][j] != 0:
+                    c = h * float(tab.a[i][j])
+                    xi += c * ks[j]
+                    dxi += c * dks[j]
+                    dui += c * dus[j]
+            ti = float(t) + float(tab.c[i]) * h
+            ks.append(np.asarray(model.f(ti, xi, u), dtype=float))
+            F = np.asarray(model.jacobian(ti, xi, u), dtype=float)
+            dks.append(F @ dxi)
+            dus.append(F @ dui + np.asarray(model.input_jacobian(ti, xi, u), dtype=float))
+        A = eye + h * sum(float(b) * dk for b, dk in zip(tab.b, dks, strict=True))
+        B = h * sum(float(b) * du for b, du in zip(tab.b, dus, strict=True))
+        return A, B
+
+    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
+        """z = x."""
+        return np.array(x, dtype=float)
 
 
 register_family(

@@ -25,6 +25,8 @@ from ._closed_loop import ClosedLoop as ClosedLoop
 from ._closed_loop import FeedbackLaw as FeedbackLaw
 from ._closed_loop import LinearFeedback as LinearFeedback
 from ._codegen import cache_dir as cache_dir
+from ._codegen import import_line as kernel_import_line
+from ._codegen import load_module as load_generated_module
 from ._function import FunctionModel as FunctionModel
 from ._rigid_body import rotation_jacobian as rotation_jacobian
 from ._rigid_body import rotation_jacobian_inverse as rotation_jacobian_inverse
@@ -49,6 +51,8 @@ __all__ = [
     "Vehicle",
     "builtin_vehicles",
     "cache_dir",
+    "kernel_import_line",
+    "load_generated_module",
     "load_vehicle",
     "roll_pitch_hold",
     "rotation_jacobian",

@@ -489,6 +489,11 @@ def _build(
         "input_jacobian": sp.Matrix(nx, nu, [e for row in jac_u for e in row]),
         "kinks": tuple(kinks),
         "linear_params": tuple(params[k] for k in linear),
+        # the symbols of f(t, x, u; p), in the order of t, x, u and the parameter array
+        "states": tuple(states),
+        "inputs": tuple(inputs),
+        "params": tuple(params),
+        "time": time,
     }
     return _Code(
         source=source,
@@ -597,8 +602,10 @@ class SymbolicModel(ParameterArrayModel):
     @property
     def expressions(self) -> dict[str, Any]:
         """The sympy objects: ``rhs`` (as given), ``jacobian`` (nx x nx Matrix),
-        ``input_jacobian`` (nx x nu), ``kinks`` (switching functions) and
-        ``linear_params`` (the parameters :meth:`regressors` is linear in)."""
+        ``input_jacobian`` (nx x nu), ``kinks`` (switching functions),
+        ``linear_params`` (the parameters :meth:`regressors` is linear in), and the
+        symbols ``states``, ``inputs``, ``params`` (in the order of the parameter
+        array) and ``time`` (or None)."""
         return dict(self._code.expressions)
 
     @property

@@ -1,6 +1,10 @@
 """Paper-style tables and matplotlib figures."""
 
 from ._auv_figs import plot_error_vs_order as plot_error_vs_order
+from ._closed_loop import closed_loop_table as closed_loop_table
+from ._closed_loop import multistep_table as multistep_table
+from ._closed_loop import plot_closed_loop as plot_closed_loop
+from ._closed_loop import plot_multistep as plot_multistep
 from ._fig7 import fig7_table as fig7_table
 from ._fig7 import norm_evidence as norm_evidence
 from ._fig7 import plot_fig7 as plot_fig7
@@ -12,10 +16,14 @@ from ._tables import write_csv as write_csv
 
 __all__ = [
     "ReportFiles",
+    "closed_loop_table",
     "fig7_table",
     "format_grid",
+    "multistep_table",
     "norm_evidence",
+    "plot_closed_loop",
     "plot_error_vs_order",
+    "plot_multistep",
     "plot_fig7",
     "ratio_phrase",
     "write_csv",

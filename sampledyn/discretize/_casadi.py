@@ -1,0 +1,218 @@
+"""CasADi expressions of the models and of the discrete-time models built on them.
+
+One source of truth per model, no second hand-written copy:
+
+* symbolic models (:class:`~sampledyn.models.SymbolicModel`, and the AUV-like system,
+  which is one): the sympy expressions the compiled kernels are printed from, turned
+  into CasADi by ``sympy.lambdify`` with CasADi's functions;
+* compiled hand-written kernels (the built-in :class:`~sampledyn.models.Vehicle`, the
+  linear feedback of a :class:`~sampledyn.models.ClosedLoop`): the kernel's own Python
+  source (``kernel.py_func``, the text numba compiles) run once on CasADi symbols,
+  with ``math`` mapped to CasADi and the one data-dependent branch of the vehicle
+  kernel, the thruster saturation ``_saturate``, written as ``fmin(fmax(n, -n_max),
+  n_max)``. A kernel that branches on a state or input elsewhere is refused with the
+  branch named. Nothing is transcribed, so the CasADi function cannot drift from the
+  kernel; a test compares both to 1e-12 at random states, saturated inputs included;
+* closed loops: the plant's expression at the law's output.
+
+Why not a ``casadi.Callback`` around the compiled kernel: an MPC solver (IPOPT) then
+sees a black box without second derivatives and pays a Python call per evaluation;
+CasADi expressions give it exact, sparse first and second derivatives.
+"""
+
+from __future__ import annotations
+
+import functools
+import types
+from typing import Any
+
+import numpy as np
+
+__all__ = ["casadi_rhs", "discrete_function"]
+
+
+def _casadi() -> Any:
+    try:
+        import casadi
+    except ImportError as exc:  # pragma: no cover - the test extra installs it
+        raise ImportError("to_casadi needs CasADi: pip install 'sampledyn[control]'.") from exc
+    return casadi
+
+
+def _math_namespace(ca: Any) -> types.SimpleNamespace:
+    return types.SimpleNamespace(
+        sin=ca.sin, cos=ca.cos, tan=ca.tan, asin=ca.asin, acos=ca.acos, atan=ca.atan,
+        atan2=ca.atan2, sinh=ca.sinh, cosh=ca.cosh, tanh=ca.tanh, exp=ca.exp, log=ca.log,
+        sqrt=ca.sqrt, fabs=ca.fabs, floor=ca.floor, ceil=ca.ceil, pi=np.pi, e=np.e,
+        copysign=lambda a, b: ca.fabs(a) * ca.sign(b), isnan=lambda a: False,
+    )  # fmt: skip
+
+
+# Data-dependent branches of built-in kernels, by the name of the helper (see the
+# module docstring); each is checked against the compiled kernel by the tests.
+def _overrides(ca: Any) -> dict[str, Any]:
+    return {"_saturate": lambda n, n_max: ca.fmin(ca.fmax(n, -n_max), n_max)}
+
+
+def _rebound(py_func: Any, ca: Any, memo: dict[int, Any]) -> Any:
+    """``py_func`` with its globals re-bound for CasADi symbols (numba helpers it calls
+    re-bound the same way, ``math`` -> CasADi)."""
+    key = id(py_func)
+    if key in memo:
+        return memo[key]
+    g = dict(py_func.__globals__)
+    g["math"] = _math_namespace(ca)
+    overrides = _overrides(ca)
+    for name, value in py_func.__globals__.items():
+        if name in overrides:
+            g[name] = overrides[name]
+        elif hasattr(value, "py_func") and callable(value):
+            g[name] = _LazyRebound(value.py_func, ca, memo)
+    fn = types.FunctionType(
+        py_func.__code__, g, py_func.__name__, py_func.__defaults__, py_func.__closure__
+    )
+    memo[key] = fn
+    return fn
+
+
+class _LazyRebound:
+    """A numba helper re-bound on its first call (most globals are never called)."""
+
+    def __init__(self, py_func: Any, ca: Any, memo: dict[int, Any]) -> None:
+        self.py_func, self.ca, self.memo = py_func, ca, memo
+
+    def __call__(self, *args: Any) -> Any:
+        return _rebound(self.py_func, self.ca, self.memo)(*args)
+
+
+class _Buffer(list):
+    """The kernel's ``out`` argument: a list of expressions that has a ``shape``."""
+
+    @property
+    def shape(self) -> tuple[int]:
+        return (len(self),)
+
+
+def _run_kernel(kernel: Any, p: Any, t: Any, x: Any, u: Any, n_out: int) -> Any:
+    """``kernel(t, x, u, p, out)`` run on CasADi symbols; returns out as a column."""
+    ca = _casadi()
+    py_func = getattr(kernel, "py_func", None)
+    if py_func is None:
+        raise TypeError(f"{kernel!r} is not a numba kernel with Python source (py_func).")
+    fn = _rebound(py_func, ca, {})
+    out = _Buffer([ca.SX(0.0)] * n_out if isinstance(x, ca.SX) else [ca.MX(0.0)] * n_out)
+    plist = [float(v) for v in np.asarray(p, dtype=float)]
+    xs = [x[i] for i in range(x.shape[0])]
+    us = [u[i] for i in range(u.shape[0])]
+    try:
+        fn(t, xs, us, plist, out)
+    except RuntimeError as exc:
+        if "bool" in str(exc) or "truth" in str(exc).lower() or "symbolic" in str(exc):
+            raise ValueError(
+                f"kernel {py_func.__qualname__} branches on a state or input (an `if` or "
+                "`min`/`max` on them), which CasADi symbols cannot take; give the model as "
+                f"a sampledyn.models.SymbolicModel instead. ({exc})"
+            ) from None
+        raise
+    return ca.vertcat(*out)
+
+
+def _sympy_rhs(model: Any, x: Any, u: Any) -> Any:
+    """CasADi expression of a symbolic model's f at the model's parameter values."""
+    import sympy as sp
+
+    ca = _casadi()
+    e = model.expressions
+    if e.get("time") is not None:
+        raise ValueError(
+            f"{model.name!r} depends on time explicitly; to_casadi supports "
+            "time-invariant models (F(z, u))."
+        )
+    values = model.params
+    subs = {s: values[s.name] for s in e["params"]}
+    rhs = [sp.sympify(r).subs(subs) for r in e["rhs"]]
+    if any(r.has(sp.Piecewise) for r in rhs):
+        raise ValueError(
+            f"{model.name!r} uses Piecewise, which has no CasADi translation here; write it "
+            "with Max/Min/Heaviside/sign/Abs."
+        )
+
+    def fmax(*a: Any) -> Any:
+        return functools.reduce(ca.fmax, a)
+
+    def fmin(*a: Any) -> Any:
+        return functools.reduce(ca.fmin, a)
+
+    def heaviside(a: Any, h0: Any = 0.5) -> Any:
+        return ca.if_else(a > 0, 1.0, ca.if_else(a < 0, 0.0, h0))
+
+    names = {
+        "Abs": ca.fabs, "abs": ca.fabs, "sign": ca.sign, "Heaviside": heaviside,
+        "Max": fmax, "Min": fmin, "max": fmax, "min": fmin,
+    }  # fmt: skip
+    fn = sp.lambdify([*e["states"], *e["inputs"]], rhs, modules=[names, ca])
+    out = fn(*[x[i] for i in range(x.shape[0])], *[u[i] for i in range(u.shape[0])])
+    return ca.vertcat(*[ca.SX(v) if isinstance(v, int | float) else v for v in out])
+
+
+def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
+    symbolic = getattr(model, "symbolic", None)  # AUVLike: a SymbolicModel inside
+    if symbolic is not None and hasattr(symbolic, "expressions"):
+        return _sympy_rhs(symbolic, x, u)
+    if hasattr(model, "expressions"):
+        return _sympy_rhs(model, x, u)
+    plant, law = getattr(model, "plant", None), getattr(model, "law", None)
+    if plant is not None and law is not None:  # ClosedLoop: f(x, kappa(x, r))
+        kernel, q = law.kernel()
+        applied = _run_kernel(kernel, q, 0.0, x, u, int(law.nu))
+        return _rhs_expression(plant, x, applied)
+    kernel, p = model.kernel()
+    return _run_kernel(kernel, p, 0.0, x, u, int(model.nx))
+
+
+def casadi_rhs(model: Any) -> Any:
+    """``casadi.Function`` f(x, u) -> x' of a continuous-time model (SX).
+
+    Supported: symbolic models (from their sympy expressions), the AUV-like system,
+    vehicles and other hand-written kernels without branches on x or u (from the
+    kernel's own source), closed loops of those with a linear feedback.
+
+    Raises
+    ------
+    ValueError
+        for a time-varying symbolic model, Piecewise, or a kernel that branches on a
+        state or input (named).
+    """
+    ca = _casadi()
+    x = ca.SX.sym("x", int(model.nx))
+    u = ca.SX.sym("u", int(model.nu))
+    return ca.Function("f", [x, u], [_rhs_expression(model, x, u)], ["x", "u"], ["xdot"])
+
+
+def discrete_function(dm: Any) -> Any:
+    """``casadi.Function`` F(z, u) -> z+ of a DiscreteModel, from the rule's
+    ``step_blocks`` on the model's CasADi f. Explicit rules give an SX function;
+    Tustin's implicit step is a Newton ``rootfinder`` (MX), exact to its tolerance
+    (1e-14) and differentiable by the implicit function theorem."""
+    ca = _casadi()
+    f = casadi_rhs(dm.model)
+    nx, nu, core = dm.nx, dm.nu, len(dm.layout) * dm.nx
+    implicit_rule = "jac(" in dm.method.step_source()
+    sym = ca.MX.sym if implicit_rule else ca.SX.sym
+    z = sym("z", dm.nz)
+    u = sym("u", nu)
+    blocks = [z[b * nx : (b + 1) * nx] for b in range(len(dm.layout))]
+    applied = z[core:] if dm.delay else u
+
+    def implicit(residual: Any, guess: Any) -> Any:
+        x1 = ca.MX.sym("x1", nx)
+        g = ca.Function("residual", [x1, z, u], [residual(x1)])
+        solver = ca.rootfinder(
+            f"{dm.method.name}_newton", "newton", g, {"abstol": 1e-14, "max_iter": 50}
+        )
+        return solver(guess, z, u)
+
+    new = dm.method.step_blocks(lambda t, xb, ub: f(xb, ub), 0.0, blocks, applied, dm.h, implicit)
+    parts = list(new) + ([u] if dm.delay else [])
+    name = f"{dm.method.name}_h{dm.h:g}".replace(".", "p")
+    return ca.Function(name, [z, u], [ca.vertcat(*parts)], ["z", "u"], ["z_next"])
