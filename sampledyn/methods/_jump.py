@@ -215,8 +215,11 @@ def collocation_weights(tau: np.ndarray) -> np.ndarray:
     """``c[r, j - 1, k]``: integral over [tau_j, 0] of the Lagrange basis polynomial of
     node k on the nodes ``tau[r]`` (:func:`history_nodes`), j = 1..s-1; shape
     (R, s - 1, s). On a uniform grid these are :func:`backward_weights` rows 1..s-1."""
-    s = tau.shape[1]
-    return np.stack([lagrange_integrals(tau, tau[:, j], 0.0) for j in range(1, s)], axis=1)
+    rows, s = tau.shape
+    out = np.empty((rows, s - 1, s))
+    for j in range(1, s):
+        out[:, j - 1] = lagrange_integrals(tau, tau[:, j], 0.0)
+    return out
 
 
 register_family(

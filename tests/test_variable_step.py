@@ -1,0 +1,407 @@
+"""Prediction on non-uniform time (issue 11, item 2): the variable-step rules, their
+noise gains and linearisations, the time-weighted norms.
+
+Every rule the registry lists that says it predicts on non-uniform time
+(``variable_step``) enters each generic test; nothing here names a rule except the
+tests of one family's own pieces (the Adams weights, ABj's rebuilt history).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+from scipy.optimize import minimize
+
+import sampledyn as sd
+import sampledyn.estimate  # noqa: F401 - registers the estimated rules (Ee, ABe_s)
+from sampledyn.methods import (
+    ab_coefficients,
+    ab_gain_factor,
+    available_methods,
+    collocation_weights,
+    get_method,
+    lagrange_integrals,
+    stencil_steps,
+)
+from sampledyn.methods._jump import backward_weights
+from sampledyn.methods._nodes import pattern_nodes
+
+VARIABLE = [
+    n
+    for n in available_methods()
+    if get_method(n).variable_step and not get_method(n).estimates_params
+]
+
+A = np.array([[0.0, 1.0], [-4.0, -0.4]])
+B = np.array([0.0, 1.0])
+
+
+def test_the_registry_has_variable_step_rules_of_every_family():
+    assert {get_method(n).family for n in VARIABLE} >= {"AB", "ABu", "ABj", "RK", "T"}
+    for name in available_methods():
+        m = get_method(name)
+        assert isinstance(m.variable_step, bool) and isinstance(m.step_rule, str) and m.step_rule
+        if m.estimates_params:
+            assert not m.variable_step
+
+
+def _random_times(h, duration, seed=0, spread=0.1):
+    """Times from 0 with steps h w_n, w_n uniform in [1 - spread, 1 + spread]: with the
+    default every ratio of consecutive steps lies in [0.8, 1.25]."""
+    w = np.random.default_rng(seed).uniform(1 - spread, 1 + spread, int(duration / h * 1.3) + 8)
+    t = np.concatenate([[0.0], np.cumsum(h * w)])
+    return t[t <= duration + 1e-12]
+
+
+def _traj(t, x, u=None, h=None, names=None):
+    x = np.asarray(x, dtype=float).reshape(t.size, -1)
+    u = np.zeros((t.size, 1)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
+    names = names or tuple(f"x{i}" for i in range(x.shape[1]))
+    h = float(np.median(np.diff(t))) if h is None else h
+    return sd.Trajectory(t=t, x=x, u=u, h=h, state_names=names, state_units=("",) * len(names))
+
+
+class Linear:
+    """x' = A x + B u, exact samples on any time grid under a zero-order-hold input."""
+
+    nx, nu = 2, 1
+    state_names, state_units = ("x", "y"), ("", "")
+    input_names, input_units = ("u",), ("",)
+
+    def __init__(self, a=A, b=B):
+        self.a, self.b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+
+    def f(self, t, x, u):
+        return np.asarray(x) @ self.a.T + np.asarray(u)[:, :1] * self.b
+
+    def jacobian(self, t, x, u):
+        return np.broadcast_to(self.a, (np.shape(x)[0], 2, 2)).copy()
+
+    def samples(self, t, u, x0=(1.0, 0.0)):
+        x = np.empty((t.size, 2))
+        x[0] = x0
+        for k in range(t.size - 1):
+            e = expm(self.a * (t[k + 1] - t[k]))
+            x[k + 1] = e @ x[k] + np.linalg.solve(self.a, (e - np.eye(2)) @ self.b) * u[k]
+        return _traj(t, x, u, names=self.state_names)
+
+
+class Quadrature:
+    """x' = p(t): every rule becomes a quadrature rule for p."""
+
+    nx, nu = 1, 1
+    state_names, state_units = ("x",), ("",)
+
+    def __init__(self, coeffs):
+        self.p = np.polynomial.Polynomial(coeffs)
+
+    def f(self, t, x, u):
+        return np.broadcast_to(self.p(np.asarray(t, dtype=float)), (np.shape(x)[0],))[
+            :, None
+        ].copy()
+
+    def jacobian(self, t, x, u):
+        return np.zeros((np.shape(x)[0], 1, 1))
+
+
+def _slope(hs, errs):
+    return float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
+
+
+# ------------------------------------------------------------------ the Adams weights
+@pytest.mark.parametrize("s", range(1, 13))
+def test_weights_of_uniform_nodes_are_the_fixed_coefficients(s):
+    beta = lagrange_integrals(-np.arange(s, dtype=float)[None, :], 0.0, 1.0)[0]
+    exact = np.array([float(a) for a in ab_coefficients(s)])
+    assert np.abs(beta - exact).max() <= 64 * np.finfo(float).eps * np.abs(exact).max()
+    if s >= 2:  # ABj's collocation weights: backward_weights rows 1..s-1
+        c = collocation_weights(-np.arange(s, dtype=float)[None, :])[0]
+        ref = np.array(backward_weights(s), dtype=float)[1:]
+        assert np.abs(c - ref).max() <= 64 * np.finfo(float).eps * max(1.0, np.abs(ref).max())
+
+
+@pytest.mark.parametrize("s", [1, 2, 3, 4, 6, 8])
+def test_lagrange_integrals_are_exact_on_polynomials_of_degree_below_s(s):
+    rng = np.random.default_rng(s)
+    steps = rng.uniform(0.8, 1.25, (50, s))
+    tau, _ = pattern_nodes(steps)  # nodes 0, -h_{n-1}/h_n, ... on random steps
+    lo, hi = rng.uniform(-3, 0, 50), rng.uniform(0, 1.5, 50)
+    w = lagrange_integrals(tau, lo, hi)
+    for degree in range(s):
+        p = np.polynomial.Polynomial(rng.uniform(-2, 2, degree + 1))
+        exact = p.integ()(hi) - p.integ()(lo)
+        terms = w * p(tau)  # rounding relative to the terms summed (extrapolation cancels)
+        scale = np.abs(terms).sum(axis=1)
+        assert (np.abs(terms.sum(axis=1) - exact) <= 1e-14 * s * scale + 1e-15).all()
+
+
+# ------------------------------------------------------------------ every variable-step rule
+@pytest.mark.parametrize("name", VARIABLE)
+def test_exact_on_polynomials_below_the_order_on_random_nodes(name):
+    m = get_method(name)
+    rng = np.random.default_rng(m.order)
+    model = Quadrature(rng.uniform(-2, 2, m.order))  # degree s - 1
+    t = _random_times(0.1, 2.0, seed=m.order)
+    traj = _traj(t, model.p.integ()(t))
+    x_hat = m.predict(model, traj)
+    scale = np.abs(traj.x).max()
+    np.testing.assert_allclose(x_hat[m.history :], traj.x[m.history :], atol=1e-12 * scale)
+
+
+def test_the_random_grids_have_step_ratios_in_the_brief():
+    for h in (0.16, 0.08, 0.04, 0.02, 0.01):
+        r = np.diff(_random_times(h, 2.0))
+        ratio = r[1:] / r[:-1]
+        assert 0.8 <= ratio.min() and ratio.max() <= 1.25 and ratio.std() > 0.05
+
+
+@pytest.mark.parametrize("name", VARIABLE)
+def test_local_error_slope_on_random_steps_against_closed_form(name):
+    # x' = A x, exact samples by expm on random steps (ratios in [0.8, 1.25]): the
+    # largest local error after t = 1 falls like h^(s+1).
+    m = get_method(name)
+    s = m.order
+    hs = np.array([0.08, 0.04, 0.02, 0.01]) if s < 5 else np.array([0.16, 0.08, 0.04, 0.02])
+    errs = []
+    for h in hs:
+        t = _random_times(h, 2.0)
+        traj = Linear().samples(t, np.zeros(t.size))
+        e = sd.local_errors(m.predict(Linear(), traj), traj)
+        errs.append(sd.error_norm(e, t, kind="max", after=1.0))
+    slope = _slope(hs, np.array(errs))
+    assert abs(slope - (s + 1)) <= 0.3, (name, slope, errs)
+
+
+@pytest.mark.parametrize("name", VARIABLE)
+def test_local_error_slope_on_random_steps_against_scipy(name):
+    # The smooth stretch of the AUV-like system (constant input, velocity > 0),
+    # reference by SciPy's DOP853 at rtol 1e-13 on the random stamps.
+    model = sd.models.AUVLike()
+    m = get_method(name)
+    s = m.order
+    hs = np.array([0.04, 0.02, 0.01]) if s < 5 else np.array([0.08, 0.04, 0.02])
+    errs = []
+    for h in hs:
+        t = _random_times(h, 1.2, seed=1)
+        sol = solve_ivp(
+            lambda tt, x: model.f(tt, x, np.array([3.0])),
+            (0, t[-1]),
+            [0.8, 1.0],
+            method="DOP853",
+            t_eval=t,
+            rtol=1e-13,
+            atol=1e-14,
+        )
+        traj = _traj(t, sol.y.T, np.full(t.size, 3.0), names=model.state_names)
+        assert (traj.x[:, 1] > 0).all()
+        e = sd.local_errors(m.predict(model, traj), traj)
+        errs.append(sd.error_norm(e, t, kind="max", after=0.5))
+    slope = _slope(hs, np.array(errs))
+    assert abs(slope - (s + 1)) <= 0.35, (name, slope, errs)
+
+
+@pytest.mark.parametrize("name", VARIABLE)
+def test_variable_step_code_equals_the_fixed_rule_on_a_uniform_grid(name):
+    # The same uniform stamps, once with h = the step (fixed-step code) and once with
+    # a nominal h that does not match them (so the rule takes the actual steps).
+    model, signal = sd.models.AUVLike(), None
+    traj = sd.simulate(model, sd.signals.Multilevel(hold=0.05, seed=3), T=2.0, h=0.01)
+    m = get_method(name)
+    fixed = m.predict(model, traj, signal)
+    actual = m.predict(model, traj.replace(h=0.0101), signal)
+    np.testing.assert_allclose(actual, fixed, rtol=1e-13, atol=1e-13 * np.abs(traj.x).max())
+    phi_fixed = m.prediction_jacobians(model, traj, signal)
+    phi_actual = m.prediction_jacobians(model, traj.replace(h=0.0101), signal)
+    np.testing.assert_allclose(phi_actual, phi_fixed, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", VARIABLE)
+def test_prediction_jacobians_are_derivatives_of_predict_on_random_steps(name):
+    model = sd.models.AUVLike()
+    signal = sd.signals.Multilevel(hold=0.05, seed=3)
+    base = sd.simulate(model, signal, T=4.0, h=0.01, x0=np.array([1.0, 0.5]))
+    t = base.t + np.random.default_rng(2).uniform(-0.002, 0.002, base.n_samples)
+    t[0] = 0.0
+    traj = base.replace(t=t)  # the states need not be exact at t for this test
+    m = get_method(name)
+    phi = m.prediction_jacobians(model, traj)
+    n, nx = traj.x.shape
+    assert np.isnan(phi[: m.history]).all() and np.isfinite(phi[m.history :]).all()
+    picks = [
+        k for k in range(10, n - m.history - 1, 37) if np.abs(traj.x[k : k + 8, 1]).min() > 0.05
+    ]
+    assert len(picks) >= 5
+    for k in picks:
+        for j in range(nx):
+            eps = 1e-6 * (1.0 + abs(traj.x[k, j]))
+            xp, xm = traj.x.copy(), traj.x.copy()
+            xp[k, j] += eps
+            xm[k, j] -= eps
+            dp = m.predict(model, traj.replace(x=xp))
+            dm = m.predict(model, traj.replace(x=xm))
+            for i in range(m.history):
+                row = k + 1 + i
+                fd = (dp[row] - dm[row]) / (2 * eps)
+                np.testing.assert_allclose(phi[row, i, :, j], fd, rtol=1e-6, atol=1e-8)
+
+
+@pytest.mark.parametrize("name", VARIABLE)
+def test_noise_gain_with_the_step_ratio_bounds_every_row(name):
+    # x' = a x + b u with a >= 0 elementwise (L = a exactly), random steps, an input
+    # that jumps: the gain at (largest step, largest stencil step ratio) bounds the
+    # increment's response on every row, and a perturbation's effect.
+    m = get_method(name)
+    a = np.array([[0.3, 0.5], [0.2, 0.4]])
+    plant = Linear(a, np.array([0.0, 1.0]))
+    t = _random_times(0.1, 4.0, seed=5, spread=0.2)
+    u = np.repeat(np.random.default_rng(1).uniform(-1, 1, t.size // 8 + 1), 8)[: t.size]
+    traj = _traj(t, np.stack([np.exp(0.1 * t), np.cos(t)], axis=1), u)
+    h_max, ratio = stencil_steps(traj, m.history)
+    assert ratio > 1.0 or m.history == 1
+    gain = m.noise_gain(h_max, a, ratio)
+    phi = m.prediction_jacobians(plant, traj)
+    eye = np.eye(2)
+    rows = range(m.history, t.size)
+    totals = np.array(
+        [sum(np.abs(phi[k, i] - (eye if i == 0 else 0.0)) for i in range(m.history)) for k in rows]
+    )
+    assert (totals <= gain * (1 + 1e-12)).all()
+    rng = np.random.default_rng(0)
+    base = m.predict(plant, traj)
+    for _ in range(5):
+        d = rng.uniform(-1e-3, 1e-3, traj.x.shape)
+        moved = m.predict(plant, traj.replace(x=traj.x + d))
+        for k in rows:
+            incr = np.abs(moved[k] - d[k - 1] - base[k])
+            box = np.abs(d[k - m.history : k]).max(axis=0)
+            assert (incr <= gain @ box * (1 + 1e-9) + 1e-15).all()
+    # ratio 1 is the uniform gain; the gain grows with the ratio
+    np.testing.assert_array_equal(m.noise_gain(0.1, a, 1.0), m.noise_gain(0.1, a))
+    assert (m.noise_gain(0.1, a, 1.5) >= m.noise_gain(0.1, a) * (1 - 1e-12)).all()
+    with pytest.raises(ValueError, match="step `ratio` must be a finite number >= 1"):
+        m.noise_gain(0.1, a, 0.5)
+
+
+@pytest.mark.parametrize("s", [2, 3, 4, 5, 6])
+@pytest.mark.parametrize("ratio", [1.25, 2.0, 4.0])
+def test_the_ab_gain_is_largest_at_a_corner_of_the_step_box(s, ratio):
+    # sup over step patterns in [1/ratio, 1]^s of h_n sum |beta_{n,i}|: random interior
+    # patterns and local maximisation from random starts never exceed the corners.
+    def gain(steps):
+        tau, hn = pattern_nodes(np.atleast_2d(steps))
+        return hn * np.abs(lagrange_integrals(tau, 0.0, 1.0)).sum(axis=1)
+
+    top = ab_gain_factor(s, ratio)
+    rng = np.random.default_rng(s)
+    assert gain(rng.uniform(1 / ratio, 1, (20000, s))).max() <= top * (1 + 1e-12)
+    for _ in range(8):
+        res = minimize(
+            lambda z: -gain(z)[0],
+            rng.uniform(1 / ratio, 1, s),
+            bounds=[(1 / ratio, 1.0)] * s,
+            method="L-BFGS-B",
+        )
+        assert -res.fun <= top * (1 + 1e-9)
+    assert ab_gain_factor(s, 1.0) == pytest.approx(float(sd.AdamsBashforth(s).a_s), rel=1e-13)
+
+
+def test_time_must_increase_for_every_rule():
+    model = sd.models.AUVLike()
+    traj = sd.simulate(model, sd.signals.Multilevel(hold=0.05, seed=3), T=1.0, h=0.01)
+    t = traj.t.copy()
+    t[30] = t[29] - 1e-3
+    for name in VARIABLE:
+        with pytest.raises(ValueError, match=r"must increase strictly: t\[30\]"):
+            sd.predict(name, model, traj.replace(t=t))
+
+
+# ------------------------------------------------------------------ ABj across jumps
+@pytest.mark.parametrize("s", [2, 3, 4])
+def test_abj_keeps_its_order_across_jumps_on_random_steps(s):
+    # The largest error over the predictions whose history holds an input jump falls
+    # like h^(s+1) on random steps too (the collocation weights of the actual nodes).
+    hs = np.array([0.02, 0.01, 0.005, 0.0025])
+    errs = []
+    for h in hs:
+        t = _random_times(h, 3.0, seed=3)
+        levels = np.random.default_rng(0).uniform(-10, 10, 20)
+        u = levels[np.floor(t / 0.2 + 1e-9).astype(int)]
+        traj = Linear().samples(t, u)
+        e = np.linalg.norm(traj.x - get_method(f"ABj{s}").predict(Linear(), traj), axis=1)
+        hist = np.zeros(t.size, dtype=bool)
+        for k in range(s + 1, t.size):
+            hist[k] = np.unique(u[k - s : k]).size > 1
+        errs.append(np.nanmax(e[hist]))
+    assert abs(_slope(hs, np.array(errs)) - (s + 1)) < 0.35
+
+
+def test_abj_jacobians_go_in_bounded_blocks(monkeypatch):
+    # The input changes at every sample, so every prediction rebuilds its history:
+    # blocks of a few rows give the same Jacobians and keep the working memory near
+    # the block size, not the (rows, s, s, nx, nx) of all rows at once.
+    import tracemalloc
+
+    import sampledyn.methods._held as held
+
+    plant = Linear()
+    t = 0.01 * np.arange(1500)
+    u = np.sin(3 * t) + 0.1 * np.random.default_rng(0).standard_normal(t.size)
+    traj = plant.samples(t, u)
+    m = get_method("ABj6")
+    whole = m.prediction_jacobians(plant, traj)
+    row_bytes = 8 * 6 * 6 * 2 * 2
+    monkeypatch.setattr(held, "JACOBIAN_CHUNK_BYTES", 16 * row_bytes)
+    tracemalloc.start()
+    blocks = m.prediction_jacobians(plant, traj)
+    peak = tracemalloc.get_traced_memory()[1] - blocks.nbytes
+    tracemalloc.stop()
+    np.testing.assert_array_equal(blocks, whole)
+    all_rows = traj.n_samples * row_bytes  # d for every row at once, 0.43 MB here
+    assert peak < all_rows / 4, (peak, all_rows)
+
+
+# ------------------------------------------------------------------ norms
+def test_norms_are_unchanged_on_a_uniform_grid():
+    rng = np.random.default_rng(0)
+    t = 0.1 * np.arange(200)
+    e = rng.standard_normal((200, 3))
+    e[:4] = np.nan
+    sq = (e[4:] ** 2).sum(axis=1)
+    got = sd.errors.error_norms(e, t)
+    assert got["rms"] == float(np.sqrt(sq.sum() / sq.size))
+    assert got["mean"] == float(np.sqrt(sq).mean())
+    assert got["l2"] == float(np.sqrt(sq.sum()))
+    assert got["l2_over_n"] == float(np.sqrt(sq.sum()) / sq.size)
+    assert got["max"] == float(np.sqrt(sq.max()))
+
+
+def test_norms_weight_each_sample_by_its_step_on_non_uniform_time():
+    rng = np.random.default_rng(1)
+    t = np.cumsum(np.concatenate([[0.0], rng.uniform(0.05, 0.15, 99)]))
+    e = rng.standard_normal((100, 2))
+    e[0] = np.nan
+    span = np.diff(t)  # sample n spans [t_{n-1}, t_n]
+    sq = (e[1:] ** 2).sum(axis=1)
+    w = span / span.mean()
+    got = sd.errors.error_norms(e, t)
+    assert got["rms"] == pytest.approx(math.sqrt((span * sq).sum() / span.sum()), rel=1e-13)
+    assert got["mean"] == pytest.approx((span * np.sqrt(sq)).sum() / span.sum(), rel=1e-13)
+    assert got["l2"] == pytest.approx(math.sqrt((w * sq).sum()), rel=1e-13)
+    assert got["l2_over_n"] == pytest.approx(math.sqrt((w * sq).sum()) / 99, rel=1e-13)
+    assert got["max"] == float(np.sqrt(sq.max()))
+
+
+def test_a_bridged_interval_counts_for_the_time_it_spans():
+    # One interval of 4 h with error e counts like 4 intervals of h with error e.
+    t_bridged = 0.1 * np.array([0, 1, 2, 6, 7, 8], dtype=float)
+    e_bridged = np.array([np.nan, 1.0, 1.0, 3.0, 1.0, 1.0])
+    t_full = 0.1 * np.arange(9, dtype=float)
+    e_full = np.array([np.nan, 1.0, 1.0, 3.0, 3.0, 3.0, 3.0, 1.0, 1.0])
+    for kind in ("rms", "mean"):
+        assert sd.error_norm(e_bridged, t_bridged, kind) == pytest.approx(
+            sd.error_norm(e_full, t_full, kind), rel=1e-14
+        )
