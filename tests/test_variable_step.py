@@ -405,3 +405,83 @@ def test_a_bridged_interval_counts_for_the_time_it_spans():
         assert sd.error_norm(e_bridged, t_bridged, kind) == pytest.approx(
             sd.error_norm(e_full, t_full, kind), rel=1e-14
         )
+
+
+# ------------------------------------------------------------------ evaluate on real clocks
+@pytest.fixture(scope="module")
+def jittered_log():
+    """The evaluate example's vehicle and input, 10 Hz with +-0.5 ms jitter on a 0.25 ms
+    clock, exact samples at the logged stamps (no measurement noise)."""
+    from sampledyn.logs import log_from_frame, synthetic_log
+
+    vehicle = sd.models.load_vehicle("bluerov2_heavy")
+    frame = synthetic_log(T=20.0, jitter=5e-4, clock=2.5e-4, eta_pct=0.0, v_pct=0.0)
+    return vehicle, frame, log_from_frame(frame, vehicle)
+
+
+def test_evaluate_on_a_jittered_log_orders_the_rules(jittered_log):
+    from dataclasses import replace
+
+    from sampledyn.logs import evaluate_log
+
+    vehicle, _, data = jittered_log
+    off = np.abs(data.traj.t - 0.1 * np.arange(data.traj.n_samples))
+    assert 4.9e-4 < off.max() < 5.1e-4  # stamps n h +- 0.5 ms
+    rules = ["E", "AB2", "AB3", "AB4"]
+    logged = evaluate_log(vehicle, data, rules, after=2.0)
+    assert logged.notes[0].startswith("time base: the logged time stamps (jittered")
+    err = [r["err_eta"] for r in logged.rows]
+    assert err[0] > 3 * err[1] > 9 * err[2] > 18 * err[3], err  # each order gains
+    # the same samples snapped to t = n h: the order comparison is lost
+    snapped = replace(data, traj=data.traj.replace(t=0.1 * np.arange(data.traj.n_samples)))
+    flat = evaluate_log(vehicle, snapped, rules, after=2.0)
+    assert flat.notes[0].startswith("time base: a uniform grid")
+    snap = [r["err_eta"] for r in flat.rows]
+    assert snap[3] > 4 * err[3] and snap[3] > 0.6 * snap[2], (err, snap)
+
+
+def test_a_bridged_log_is_predicted_on_its_logged_times(vehicle, frame):
+    from sampledyn.logs import evaluate_log, log_from_frame
+
+    dropped = frame.drop(index=[100, 250, 251, 252]).reset_index(drop=True)
+    data = log_from_frame(dropped, vehicle, gaps="bridge", max_missing=3)
+    tr = data.traj
+    big = np.flatnonzero(np.diff(tr.t) > 0.15)
+    np.testing.assert_allclose(np.diff(tr.t)[big], [0.2, 0.4], rtol=1e-9)
+    f = vehicle.f(tr.t, tr.x, tr.u)
+    for name in ("E", "AB2", "RK4"):
+        x_hat = sd.predict(name, vehicle, tr)
+        assert np.isfinite(x_hat[get_method(name).history :]).all()
+        if name == "E":  # across each gap: one Euler step of the gap's length
+            for n in big:
+                np.testing.assert_allclose(
+                    x_hat[n + 1], tr.x[n] + (tr.t[n + 1] - tr.t[n]) * f[n], rtol=1e-13
+                )
+    result = evaluate_log(vehicle, data, ["E", "AB2", "RK4"])
+    assert result.notes[0].startswith("time base: the logged time stamps (2 bridged gap(s))")
+    assert all(r["samples"] == tr.n_samples - get_method(r["method"]).history for r in result.rows)
+
+
+def test_the_noise_bound_takes_the_step_ratio_of_its_samples():
+    # assemble_bound on non-uniform samples asks the rule for its gain at the largest
+    # step and the largest stencil ratio; on uniform samples it is the uniform gain.
+    from types import SimpleNamespace
+
+    from sampledyn.sensitivity._bound import assemble_bound
+
+    lip = SimpleNamespace(lipschitz=np.array([[0.2, 1.0], [0.3, 0.8]]))
+    amp = np.full(12, 1e-3)
+    t = _random_times(0.1, 3.0, seed=4, spread=0.2)
+    jittered = _traj(t, np.zeros((t.size, 12)))
+    uniform = jittered.replace(t=0.1 * np.arange(t.size), h=0.1)
+    for name in ("AB4", "ABj3", "RK4", "T"):
+        m = get_method(name)
+        h_max, ratio = stencil_steps(jittered, m.history)
+        b = assemble_bound(name, 0.1, 1, 1, amp, lip, lip, (0.0, 0.0), samples=jittered)
+        np.testing.assert_array_equal(b.gain, m.noise_gain(h_max, lip.lipschitz, ratio))
+        same = assemble_bound(name, 0.1, 1, 1, amp, lip, lip, (0.0, 0.0), samples=uniform)
+        np.testing.assert_array_equal(same.gain, m.noise_gain(0.1, lip.lipschitz))
+    assert (
+        assemble_bound("AB4", 0.1, 1, 1, amp, lip, lip, (0.0, 0.0), samples=jittered).gain
+        > assemble_bound("AB4", 0.1, 1, 1, amp, lip, lip, (0.0, 0.0), samples=uniform).gain
+    ).all()
