@@ -17,7 +17,8 @@ which rule it is lives in the rule's own class; every other layer asks the objec
                        predicts (Ee, ABe_s); such a rule has no noise bound and also
                        offers ``estimate_and_predict(model, data, signal, *, after)``
 ``sample_weights``     w with x^_{n+1} = x_n + h sum_i w_i f(t_{n-i}, x_{n-i}, u_{n-i})
-                       exactly, newest first (AB_s, Euler, RK1), else None
+                       exactly on a uniform grid, newest first (AB_s, Euler, RK1),
+                       else None
 ``first_order_gain``   c of the noise gain G = c h L + O((h L)^2) (a_s = sum |a_i| for
                        AB_s), None for estimated rules
 ``error_constant``     C of the leading local error C h^{s+1} x^{(s+1)}, None where the
