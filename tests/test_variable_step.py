@@ -12,7 +12,15 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
+from _method_helpers import (
+    PositiveLinear,
+    Quadrature,
+    auv_smooth_order,
+    check_gain_bounds,
+    check_jacobians_against_predict,
+    make_traj,
+    slope,
+)
 from scipy.linalg import expm
 from scipy.optimize import minimize
 
@@ -57,12 +65,9 @@ def _random_times(h, duration, seed=0, spread=0.1):
     return t[t <= duration + 1e-12]
 
 
-def _traj(t, x, u=None, h=None, names=None):
-    x = np.asarray(x, dtype=float).reshape(t.size, -1)
-    u = np.zeros((t.size, 1)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
-    names = names or tuple(f"x{i}" for i in range(x.shape[1]))
-    h = float(np.median(np.diff(t))) if h is None else h
-    return sd.Trajectory(t=t, x=x, u=u, h=h, state_names=names, state_units=("",) * len(names))
+def _traj(t, x, u=None, names=None):
+    """make_traj with h the median step (the nominal period of a non-uniform log)."""
+    return make_traj(t, x, u, names, h=float(np.median(np.diff(t))))
 
 
 class Linear:
@@ -88,28 +93,6 @@ class Linear:
             e = expm(self.a * (t[k + 1] - t[k]))
             x[k + 1] = e @ x[k] + np.linalg.solve(self.a, (e - np.eye(2)) @ self.b) * u[k]
         return _traj(t, x, u, names=self.state_names)
-
-
-class Quadrature:
-    """x' = p(t): every rule becomes a quadrature rule for p."""
-
-    nx, nu = 1, 1
-    state_names, state_units = ("x",), ("",)
-
-    def __init__(self, coeffs):
-        self.p = np.polynomial.Polynomial(coeffs)
-
-    def f(self, t, x, u):
-        return np.broadcast_to(self.p(np.asarray(t, dtype=float)), (np.shape(x)[0],))[
-            :, None
-        ].copy()
-
-    def jacobian(self, t, x, u):
-        return np.zeros((np.shape(x)[0], 1, 1))
-
-
-def _slope(hs, errs):
-    return float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
 
 
 # ------------------------------------------------------------------ the Adams weights
@@ -146,7 +129,7 @@ def test_exact_on_polynomials_below_the_order_on_random_nodes(name):
     rng = np.random.default_rng(m.order)
     model = Quadrature(rng.uniform(-2, 2, m.order))  # degree s - 1
     t = _random_times(0.1, 2.0, seed=m.order)
-    traj = _traj(t, model.p.integ()(t))
+    traj = _traj(t, model.exact(t))
     x_hat = m.predict(model, traj)
     scale = np.abs(traj.x).max()
     np.testing.assert_allclose(x_hat[m.history :], traj.x[m.history :], atol=1e-12 * scale)
@@ -172,36 +155,18 @@ def test_local_error_slope_on_random_steps_against_closed_form(name):
         traj = Linear().samples(t, np.zeros(t.size))
         e = sd.local_errors(m.predict(Linear(), traj), traj)
         errs.append(sd.error_norm(e, t, kind="max", after=1.0))
-    slope = _slope(hs, np.array(errs))
-    assert abs(slope - (s + 1)) <= 0.3, (name, slope, errs)
+    fitted = slope(hs, np.array(errs))
+    assert abs(fitted - (s + 1)) <= 0.3, (name, fitted, errs)
 
 
 @pytest.mark.parametrize("name", VARIABLE)
 def test_local_error_slope_on_random_steps_against_scipy(name):
     # The smooth stretch of the AUV-like system (constant input, velocity > 0),
     # reference by SciPy's DOP853 at rtol 1e-13 on the random stamps.
-    model = sd.models.AUVLike()
-    m = get_method(name)
-    s = m.order
+    s = get_method(name).order
     hs = np.array([0.04, 0.02, 0.01]) if s < 5 else np.array([0.08, 0.04, 0.02])
-    errs = []
-    for h in hs:
-        t = _random_times(h, 1.2, seed=1)
-        sol = solve_ivp(
-            lambda tt, x: model.f(tt, x, np.array([3.0])),
-            (0, t[-1]),
-            [0.8, 1.0],
-            method="DOP853",
-            t_eval=t,
-            rtol=1e-13,
-            atol=1e-14,
-        )
-        traj = _traj(t, sol.y.T, np.full(t.size, 3.0), names=model.state_names)
-        assert (traj.x[:, 1] > 0).all()
-        e = sd.local_errors(m.predict(model, traj), traj)
-        errs.append(sd.error_norm(e, t, kind="max", after=0.5))
-    slope = _slope(hs, np.array(errs))
-    assert abs(slope - (s + 1)) <= 0.35, (name, slope, errs)
+    fitted, errs = auv_smooth_order(name, lambda h: _random_times(h, 1.2, seed=1), hs)
+    assert abs(fitted - (s + 1)) <= 0.35, (name, fitted, errs)
 
 
 @pytest.mark.parametrize("name", VARIABLE)
@@ -227,26 +192,7 @@ def test_prediction_jacobians_are_derivatives_of_predict_on_random_steps(name):
     t = base.t + np.random.default_rng(2).uniform(-0.002, 0.002, base.n_samples)
     t[0] = 0.0
     traj = base.replace(t=t)  # the states need not be exact at t for this test
-    m = get_method(name)
-    phi = m.prediction_jacobians(model, traj)
-    n, nx = traj.x.shape
-    assert np.isnan(phi[: m.history]).all() and np.isfinite(phi[m.history :]).all()
-    picks = [
-        k for k in range(10, n - m.history - 1, 37) if np.abs(traj.x[k : k + 8, 1]).min() > 0.05
-    ]
-    assert len(picks) >= 5
-    for k in picks:
-        for j in range(nx):
-            eps = 1e-6 * (1.0 + abs(traj.x[k, j]))
-            xp, xm = traj.x.copy(), traj.x.copy()
-            xp[k, j] += eps
-            xm[k, j] -= eps
-            dp = m.predict(model, traj.replace(x=xp))
-            dm = m.predict(model, traj.replace(x=xm))
-            for i in range(m.history):
-                row = k + 1 + i
-                fd = (dp[row] - dm[row]) / (2 * eps)
-                np.testing.assert_allclose(phi[row, i, :, j], fd, rtol=1e-6, atol=1e-8)
+    check_jacobians_against_predict(get_method(name), model, traj, every=37)
 
 
 @pytest.mark.parametrize("name", VARIABLE)
@@ -255,30 +201,13 @@ def test_noise_gain_with_the_step_ratio_bounds_every_row(name):
     # that jumps: the gain at (largest step, largest stencil step ratio) bounds the
     # increment's response on every row, and a perturbation's effect.
     m = get_method(name)
-    a = np.array([[0.3, 0.5], [0.2, 0.4]])
-    plant = Linear(a, np.array([0.0, 1.0]))
+    a = PositiveLinear.a
     t = _random_times(0.1, 4.0, seed=5, spread=0.2)
     u = np.repeat(np.random.default_rng(1).uniform(-1, 1, t.size // 8 + 1), 8)[: t.size]
     traj = _traj(t, np.stack([np.exp(0.1 * t), np.cos(t)], axis=1), u)
     h_max, ratio = stencil_steps(traj, m.history)
     assert ratio > 1.0 or m.history == 1
-    gain = m.noise_gain(h_max, a, ratio)
-    phi = m.prediction_jacobians(plant, traj)
-    eye = np.eye(2)
-    rows = range(m.history, t.size)
-    totals = np.array(
-        [sum(np.abs(phi[k, i] - (eye if i == 0 else 0.0)) for i in range(m.history)) for k in rows]
-    )
-    assert (totals <= gain * (1 + 1e-12)).all()
-    rng = np.random.default_rng(0)
-    base = m.predict(plant, traj)
-    for _ in range(5):
-        d = rng.uniform(-1e-3, 1e-3, traj.x.shape)
-        moved = m.predict(plant, traj.replace(x=traj.x + d))
-        for k in rows:
-            incr = np.abs(moved[k] - d[k - 1] - base[k])
-            box = np.abs(d[k - m.history : k]).max(axis=0)
-            assert (incr <= gain @ box * (1 + 1e-9) + 1e-15).all()
+    check_gain_bounds(m, traj, m.noise_gain(h_max, a, ratio), perturbations=5)
     # ratio 1 is the uniform gain; the gain grows with the ratio
     np.testing.assert_array_equal(m.noise_gain(0.1, a, 1.0), m.noise_gain(0.1, a))
     assert (m.noise_gain(0.1, a, 1.5) >= m.noise_gain(0.1, a) * (1 - 1e-12)).all()
@@ -336,7 +265,7 @@ def test_abj_keeps_its_order_across_jumps_on_random_steps(s):
         for k in range(s + 1, t.size):
             hist[k] = np.unique(u[k - s : k]).size > 1
         errs.append(np.nanmax(e[hist]))
-    assert abs(_slope(hs, np.array(errs)) - (s + 1)) < 0.35
+    assert abs(slope(hs, np.array(errs)) - (s + 1)) < 0.35
 
 
 def test_abj_jacobians_go_in_bounded_blocks(monkeypatch):

@@ -149,50 +149,22 @@ def ab_filter(x: np.ndarray, f: np.ndarray, h: float, weights: np.ndarray) -> np
     ndarray, shape (N, nx): row k predicts x[k] from samples k-1, ..., k-s; the first
     s rows are NaN.
     """
-    n, nx = x.shape
-    s = len(weights)
-    out = np.full((n, nx), np.nan)
-    if n <= s:
-        return out
-    _ab_fir(
-        np.ascontiguousarray(x, dtype=float),
-        np.ascontiguousarray(f, dtype=float),
-        float(h),
-        np.ascontiguousarray(weights, dtype=float),
-        out,
-    )
-    return out
-
-
-@njit(cache=True)
-def _ab_fir(x, f, h, w, out):  # pragma: no cover - compiled
-    """out[k] = x[k-1] + sum_i (h w[i]) f[k-1-i] for k >= s, row by row (the inner
-    loops run over contiguous rows, which the compiler vectorises)."""
-    n, nx = x.shape
-    s = w.shape[0]
-    for k in range(s, n):
-        xr = x[k - 1]
-        o = out[k]
-        for j in range(nx):
-            o[j] = xr[j]
-        for i in range(s):
-            c = h * w[i]
-            fr = f[k - 1 - i]
-            for j in range(nx):
-                o[j] += c * fr[j]
+    hw = (float(h) * np.asarray(weights, dtype=float))[None, :]  # one row: every k
+    return ab_filter_steps(x, f, hw)
 
 
 def ab_filter_steps(x: np.ndarray, f: np.ndarray, hw: np.ndarray) -> np.ndarray:
     """:func:`ab_filter` with weights per prediction: row k (k >= s) is
     ``x[k-1] + sum_i hw[k-s, i] f[k-1-i]``; ``hw``, shape (N - s, s), holds
-    ``h_n beta_{n,i}`` (:meth:`AdamsRule.step_weights`). Shape (N, nx), NaN rows 0..s-1.
+    ``h_n beta_{n,i}`` (:meth:`AdamsRule.step_weights`), or shape (1, s) for the same
+    weights on every row. Shape (N, nx), NaN rows 0..s-1.
     """
     n, nx = x.shape
     s = hw.shape[1]
     out = np.full((n, nx), np.nan)
     if n <= s:
         return out
-    _ab_fir_rows(
+    _ab_fir(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(f, dtype=float),
         np.ascontiguousarray(hw, dtype=float),
@@ -202,17 +174,21 @@ def ab_filter_steps(x: np.ndarray, f: np.ndarray, hw: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _ab_fir_rows(x, f, hw, out):  # pragma: no cover - compiled
-    """out[k] = x[k-1] + sum_i hw[k-s, i] f[k-1-i] for k >= s."""
+def _ab_fir(x, f, hw, out):  # pragma: no cover - compiled
+    """out[k] = x[k-1] + sum_i hw[k-s, i] f[k-1-i] for k >= s (hw[0] on every row if hw
+    has one row), row by row (the inner loops run over contiguous rows, which the
+    compiler vectorises)."""
     n, nx = x.shape
     s = hw.shape[1]
+    per_row = hw.shape[0] > 1
     for k in range(s, n):
+        w = hw[k - s] if per_row else hw[0]
         xr = x[k - 1]
         o = out[k]
         for j in range(nx):
             o[j] = xr[j]
         for i in range(s):
-            c = hw[k - s, i]
+            c = w[i]
             fr = f[k - 1 - i]
             for j in range(nx):
                 o[j] += c * fr[j]

@@ -134,9 +134,7 @@ class Tustin(FixedRule):
         m = x.shape[0]
         for lo in range(0, m, NEWTON_BLOCK):
             hi = min(lo + NEWTON_BLOCK, m)
-            bad = self._newton_block(
-                model, t1[lo:hi], x0[lo:hi], u1[lo:hi], f0[lo:hi], x[lo:hi], h[lo:hi]
-            )
+            bad = self._newton_block(model, *(a[lo:hi] for a in (t1, x0, u1, f0, x, h)))
             if bad is not None:
                 n = lo + int(bad[0])
                 raise ConvergenceError(
@@ -148,18 +146,10 @@ class Tustin(FixedRule):
                 )
         return x
 
-    def _newton_block(
-        self,
-        model: Any,
-        t1: np.ndarray,
-        x0: np.ndarray,
-        u1: np.ndarray,
-        f0: np.ndarray,
-        x: np.ndarray,
-        h: np.ndarray,
-    ) -> np.ndarray | None:
-        """:meth:`_newton` on one block (``x`` updated in place); None, or the indices
-        of the intervals that did not converge."""
+    def _newton_block(self, model: Any, *block: np.ndarray) -> np.ndarray | None:
+        """:meth:`_newton` on one block ``(t1, x0, u1, f0, x, h)`` (``x`` updated in
+        place); None, or the indices of the intervals that did not converge."""
+        t1, x0, u1, f0, x, h = block
         m, nx = x.shape
         lu = np.empty((m, nx, nx))
         perm = np.empty((m, nx), dtype=np.int64)
