@@ -193,7 +193,10 @@ class Trajectory:
         return int(self.u.shape[1])
 
     def is_uniform(self, rtol: float = 1e-6) -> bool:
-        """True if every step ``t[n+1] - t[n]`` is within ``rtol * h`` of ``h``."""
+        """True if every step ``t[n+1] - t[n]`` is within ``rtol * h`` of ``h``.
+
+        A check of the sampling, looser than :func:`uniform_grid` (steps equal to h up
+        to the rounding of t), which is what selects the rules' fixed-step code."""
         steps = np.diff(self.t)
         return bool(steps.size == 0 or np.abs(steps - self.h).max() <= rtol * self.h)
 
