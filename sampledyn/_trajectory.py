@@ -6,7 +6,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["Certificate", "Trajectory"]
+__all__ = ["Certificate", "Trajectory", "steps_on_grid", "uniform_grid"]
 
 
 def _frozen(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:
@@ -24,6 +24,33 @@ def _frozen(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:
     a = np.array(a, dtype=dtype, copy=True)
     a.setflags(write=False)
     return a
+
+
+# Steps that differ from h by no more than this many rounding units of the largest
+# |t| are rounding of t = n h (t_n = n h, or t_0 + n h, carries up to half a unit of
+# t_n): such a grid is uniform, and the fixed-step code runs on it.
+_ROUNDING_UNITS = 64.0
+
+
+def steps_on_grid(t: np.ndarray, h: float) -> np.ndarray:
+    """Per step of ``t``, shape (N - 1,): True where it equals ``h`` up to the rounding
+    of ``t`` (see :func:`uniform_grid`)."""
+    tol = _ROUNDING_UNITS * np.finfo(float).eps * max(abs(t[0]), abs(t[-1]), h)
+    return np.asarray(np.abs(np.diff(t) - h) <= tol)
+
+
+def uniform_grid(t: np.ndarray, h: float) -> bool:
+    """True if every step of ``t`` equals ``h`` up to the rounding of ``t``:
+    ``|t_{n+1} - t_n - h| <= 64 eps max(|t_0|, |t_{N-1}|, h)``.
+
+    This is the one test of "uniform" that selects the fixed-step code of every rule
+    (fixed coefficients and one h: results bit-identical to a rule that knows only
+    uniform grids) and the unweighted error norms; any other grid is predicted on its
+    actual steps. It is much tighter than a tolerance on h: a grid that is 1e-6 h off
+    would move an Euler step by 1e-6 h |f|.
+    """
+    t = np.asarray(t, dtype=float)
+    return bool(t.size < 2 or steps_on_grid(t, h).all())
 
 
 @dataclass(frozen=True)
@@ -166,7 +193,10 @@ class Trajectory:
         return int(self.u.shape[1])
 
     def is_uniform(self, rtol: float = 1e-6) -> bool:
-        """True if every step ``t[n+1] - t[n]`` is within ``rtol * h`` of ``h``."""
+        """True if every step ``t[n+1] - t[n]`` is within ``rtol * h`` of ``h``.
+
+        A check of the sampling, looser than :func:`uniform_grid` (steps equal to h up
+        to the rounding of t), which is what selects the rules' fixed-step code."""
         steps = np.diff(self.t)
         return bool(steps.size == 0 or np.abs(steps - self.h).max() <= rtol * self.h)
 

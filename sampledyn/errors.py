@@ -1,4 +1,31 @@
-"""Local prediction errors (section 5.1) and their norms."""
+"""Local prediction errors (section 5.1) and their norms.
+
+Norms on non-uniform time. The local error ``e_n = x_n - x_hat_n`` belongs to the
+interval ``[t_{n-1}, t_n]`` its prediction spans. On a non-uniform grid (jittered or
+bridged logs) the norms that sum or average over samples weight each sample by the
+length of that interval, normalised so the weights sum to the number of samples
+counted: ``w_n = (t_n - t_{n-1}) / mean step`` (``w_0 = (t_1 - t_0) / mean step``).
+They are then Riemann sums of the time average of the error, so a stretch of the log
+counts for its duration, not for how many records it holds (an interval bridging 3
+dropped records counts like the 4 intervals it replaces), and they stay in the
+units and scale of the unweighted norms:
+
+=============  =======================================  ==========================
+kind           uniform grid (w = 1)                     non-uniform grid
+=============  =======================================  ==========================
+"rms"          sqrt(mean ||e_n||^2)                     sqrt(sum w_n ||e_n||^2 / N)
+"mean"         mean ||e_n||                             sum w_n ||e_n|| / N
+"l2"           sqrt(sum ||e_n||^2)                      sqrt(sum w_n ||e_n||^2)
+"l2_over_n"    sqrt(sum ||e_n||^2) / N                  sqrt(sum w_n ||e_n||^2) / N
+"max"          max ||e_n||                              the same (a largest error
+                                                        is not a sum)
+=============  =======================================  ==========================
+
+(N = number of samples counted.) On a grid that is uniform to the rounding of t
+(:func:`sampledyn.methods.uniform_grid`) w = 1 exactly and the numbers are the
+unweighted ones, bit for bit. The errors themselves are not rescaled by the step
+(``e_n / h_n^{s+1}`` would depend on the rule's order and mix truncation with noise).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ._trajectory import Trajectory
+from ._trajectory import Trajectory, uniform_grid
 
 __all__ = ["ERROR_NORMS", "error_norm", "error_norms", "local_errors"]
 
@@ -44,13 +71,23 @@ def error_norm(
     The per-sample error is the Euclidean norm over the selected components;
     samples with NaN (no prediction) are left out.
 
+    errors : ndarray, shape (N, nx) or (N,)
+    t : ndarray, shape (N,)
+        Sample times (s); on a non-uniform grid they weight the samples.
     kind
         "rms": sqrt(mean ||e_n||^2); "max": max ||e_n||; "l2_over_n": sqrt(sum
-        ||e_n||^2) / N; "l2": sqrt(sum ||e_n||^2); "mean": mean ||e_n||.
+        ||e_n||^2) / N; "l2": sqrt(sum ||e_n||^2); "mean": mean ||e_n||. On a
+        non-uniform grid every kind but "max" weights sample n by the length of the
+        interval its prediction spans (see the module docstring for the table).
     components : slice, sequence of int, or None
         State components to include (e.g. ``slice(0, 6)`` for eta).
     where : ndarray of bool, shape (N,), optional
         Only samples where this is True count (e.g. away from input jumps).
+
+    Raises
+    ------
+    ValueError
+        for an unknown ``kind``, shapes that do not fit, or no sample left.
     """
     return error_norms(errors, t, (kind,), after, components, where)[kind]
 
@@ -93,7 +130,8 @@ def error_norms(
             f"no samples with a prediction at t >= after={after}; "
             "shorten `after` or lengthen the run."
         )
-    total = float(sq.sum())
+    w = _step_weights(t, keep)
+    total = float(sq.sum()) if w is None else float((w * sq).sum())
     out: dict[str, float] = {}
     for kind in kinds:
         if kind == "rms":
@@ -104,6 +142,18 @@ def error_norms(
             out[kind] = float(np.sqrt(total) / sq.size)
         elif kind == "l2":
             out[kind] = float(np.sqrt(total))
-        else:
+        elif w is None:
             out[kind] = float(np.sqrt(sq).mean())
+        else:
+            out[kind] = float((w * np.sqrt(sq)).sum() / sq.size)
     return out
+
+
+def _step_weights(t: np.ndarray, keep: np.ndarray) -> np.ndarray | None:
+    """Weights of the kept samples on a non-uniform grid (module docstring), None on a
+    uniform one."""
+    if t.size < 2 or uniform_grid(t, (t[-1] - t[0]) / (t.size - 1)):
+        return None
+    steps = np.diff(t)
+    span = np.concatenate([steps[:1], steps])[keep]  # sample n: t_n - t_{n-1}
+    return span / span.mean()

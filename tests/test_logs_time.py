@@ -119,13 +119,24 @@ def test_jitter_is_kept_as_logged_and_evaluate_names_it(vehicle, frame, tmp_path
     assert data.sampling is not None and not data.sampling.uniform
     assert 0.005 < data.jitter < 0.011 and abs(data.traj.h - 0.1) < 2e-4
     assert any("jittered" in n and "not snapped" in n for n in data.notes)
-    with pytest.raises(LogFormatError, match=r"jittered \(one-period steps 0\.099.*variable-step"):
-        evaluate_log(vehicle, data, ["AB4"])
+    # the rules predict on the logged stamps; a rule that cannot is refused by name
+    result = evaluate_log(vehicle, data, ["AB4", "RK4"])
+    assert result.notes[0].startswith("time base: the logged time stamps (jittered by up to")
+    assert any(n.strip().startswith("AB4: Adams weights of the actual nodes") for n in result.notes)
+    assert any(n.strip().startswith("RK4: step h_n") for n in result.notes)
+    with pytest.raises(LogFormatError, match=r"ABe2 predicts on a uniform grid only"):
+        evaluate_log(vehicle, data, ["ABe2"])
     table.to_csv(tmp_path / "jitter.csv", index=False)
+    main(["evaluate", "--data", str(tmp_path / "jitter.csv"), "--vehicle", "bluerov2_heavy"])
+    out = capsys.readouterr().out
+    assert "time base: the logged time stamps" in out and "E, AB2, AB4: Adams weights" in out
     with pytest.raises(SystemExit) as exc:
-        main(["evaluate", "--data", str(tmp_path / "jitter.csv"), "--vehicle", "bluerov2_heavy"])
+        main(
+            ["evaluate", "--data", str(tmp_path / "jitter.csv"), "--vehicle", "bluerov2_heavy"]
+            + ["--estimate", "ABe2"]
+        )
     assert exc.value.code == EXIT_BAD_VALUE
-    assert "time stamps are jittered" in capsys.readouterr().err
+    assert "ABe2 predicts on a uniform grid only" in capsys.readouterr().err
 
 
 def test_irregular_steps_are_refused(vehicle, frame):
@@ -160,9 +171,9 @@ def test_bridging_keeps_the_logged_samples_and_times(vehicle, frame, dropped):
     np.testing.assert_allclose(data.traj.x[:, 0], dropped["x[m]"], rtol=0, atol=0)
     assert data.sampling is not None and data.sampling.gaps == ((99, 1), (248, 3))
     assert any(n.startswith("gaps: bridged 2 gap(s)") for n in data.notes)
-    # Prediction across a gap needs variable-step rules: refused, naming the gap.
-    with pytest.raises(LogFormatError, match=r"bridged gaps .* a step of 0\.2 s at t = 9\.9 s"):
-        evaluate_log(vehicle, data, ["E"])
+    # evaluated on the logged times: the sample after a gap is predicted over its step
+    result = evaluate_log(vehicle, data, ["E"])
+    assert "2 bridged gap(s)" in result.notes[0] and "steps 0.1..0.4 s" in result.notes[0]
 
 
 def test_split_evaluates_each_segment_on_its_own(vehicle, frame, dropped, tmp_path, capsys):

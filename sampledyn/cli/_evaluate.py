@@ -45,6 +45,7 @@ def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[
         "t_start": float(tr.t[0]),
         "t_end": float(tr.t[-1]),
         "notes": list(data.notes),
+        "time_base": list(result.notes),
         "norm": args.norm,
         "after": args.after,
         "rows": result.rows,
@@ -109,6 +110,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     )
     for note in data.notes:
         print(f"  {note}")
+    for note in result.notes:
+        print(note)
     window = "all samples" if args.after is None else f"t >= {args.after:g} s"
     print(f"\n{args.norm} of the one-step local errors (measurement - prediction), {window}:")
     head = (

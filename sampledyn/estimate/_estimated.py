@@ -105,6 +105,15 @@ class EstimatedAdamsBashforth:
     def error_constant(self) -> None:
         return None
 
+    @property
+    def variable_step(self) -> bool:
+        """False: the estimation fits the fixed AB_s weights on a uniform grid."""
+        return False
+
+    @property
+    def step_rule(self) -> str:
+        return "uniform grid only"
+
     def _no_bound(self, what: str) -> ValueError:
         return ValueError(
             f"{self.name!r} has no {what}: it estimates its parameters on the data, so "
@@ -112,7 +121,7 @@ class EstimatedAdamsBashforth:
             f"{self.structure!r} with the estimated model (EstimationResult.model)."
         )
 
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+    def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """Raises ValueError: estimated rules have no noise bound."""
         raise self._no_bound("noise gain")
 

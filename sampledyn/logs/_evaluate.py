@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import error_norm, local_errors
 from ..estimate import EstimationResult
-from ..methods import get_method
+from ..methods import fixed_step, get_method
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
 from ._read import LogData
@@ -32,11 +32,15 @@ class LogEvaluation:
     estimation : EstimationResult or None
         The parameters estimated for an ABe_s / Ee row.
     warnings : tuple of str
+    notes : tuple of str
+        The time base the rules predicted on (a uniform grid, or the logged stamps)
+        and, on logged stamps, how each rule used the actual steps.
     """
 
     rows: list[dict[str, Any]]
     estimation: EstimationResult | None
     warnings: tuple[str, ...]
+    notes: tuple[str, ...] = ()
 
 
 def _mask(valid: np.ndarray, history: int) -> np.ndarray:
@@ -73,39 +77,43 @@ def _segment(data: LogData, a: int, b: int) -> Any:
     return tr.replace(t=tr.t[a:b], x=tr.x[a:b], u=tr.u[a:b])
 
 
-def _refuse_nonuniform(data: LogData) -> None:
-    """The rules predict on a uniform grid only; say why a log is not one.
-
-    This is the one place that refuses non-uniform time: the variable-step rules
-    (prediction on the logged stamps) lift it by predicting on such segments instead.
-    """
-    smp = data.sampling
-    for a, b in data.segments:
-        if _segment(data, a, b).is_uniform():
-            continue
-        h = data.traj.h
-        steps = np.diff(data.traj.t[a:b])
-        if smp is not None and not smp.uniform:
-            one = steps[np.rint(steps / h) == 1]
-            why = (
-                f"its time stamps are jittered (one-period steps {one.min():.6g}.."
-                f"{one.max():.6g} s, up to {data.jitter:.2%} of h = {h:.6g} s) "
-                "and are kept as logged, not snapped to a grid"
-            )
-        else:
-            n = int(np.argmax(np.abs(steps - h) > 1e-6 * h)) + a
-            what = "bridged gaps of dropped records" if smp is not None else "non-uniform steps"
-            why = (
-                f"it has {what} (first: a step of {data.traj.t[n + 1] - data.traj.t[n]:.6g} s "
-                f"at t = {data.traj.t[n]:.6g} s, h = {h:.6g} s)"
-            )
-        raise LogFormatError(
-            "t",
-            f"{data.source}: {why}; one-step prediction on non-uniform time stamps needs "
-            "variable-step rules, which are not available yet. Evaluate a uniform log, or "
-            "split this one at its gaps (gaps='split', --gaps split) if its segments are "
-            "uniform.",
+def _time_base(data: LogData, methods: Sequence[Any]) -> tuple[str, ...]:
+    """Say which time base the rules predict on, and how each uses the actual steps;
+    refuse a rule that cannot predict on the log's (non-uniform) stamps."""
+    uniform = [fixed_step(_segment(data, a, b)) is not None for a, b in data.segments]
+    h = data.traj.h
+    if all(uniform):
+        where = "each segment" if len(uniform) > 1 else "the log"
+        return (
+            f"time base: a uniform grid t = n h, h = {h:.6g} s, on {where}; every rule "
+            "with its fixed coefficients",
         )
+    steps = np.diff(data.traj.t)
+    within = np.concatenate([steps[a : b - 1] for a, b in data.segments])
+    smp = data.sampling
+    why = []
+    if smp is not None and not smp.uniform:
+        why.append(f"jittered by up to {data.jitter:.2%} of h")
+    if smp is not None and smp.gaps and len(data.segments) == 1:  # bridged, not split
+        why.append(f"{len(smp.gaps)} bridged gap(s)")
+    kind = f" ({', '.join(why)})" if why else ""
+    notes = [
+        f"time base: the logged time stamps{kind}, not snapped to a grid: steps "
+        f"{within.min():.6g}..{within.max():.6g} s, nominal h = {h:.6g} s"
+    ]
+    by_rule: dict[str, list[str]] = {}
+    for m in methods:
+        if not m.variable_step:
+            raise LogFormatError(
+                "t",
+                f"{data.source}: {m.name} predicts on a uniform grid only ({m.step_rule}), "
+                f"and this log's time stamps are not uniform{kind}. Use the fixed rules on "
+                "the logged stamps (E, AB<s>, RK<s>, T, ...), or split the log at its gaps "
+                "(gaps='split', --gaps split) if its segments are uniform.",
+            )
+        by_rule.setdefault(m.step_rule, []).append(m.name)
+    notes += [f"  {', '.join(names)}: {rule}" for rule, names in by_rule.items()]
+    return tuple(notes)
 
 
 def _rows_text(rows: np.ndarray) -> str:
@@ -200,12 +208,20 @@ def evaluate_log(
     Raises
     ------
     LogFormatError
-        for a log (segment) whose time is not uniform (jitter, bridged gaps): the
-        message names the jitter or the gap; for an estimated rule on a split log.
+        for a rule that predicts on a uniform grid only (the estimated rules) on a log
+        whose stamps are not uniform; for an estimated rule on a split log.
+
+    Notes
+    -----
+    The rules predict on the time stamps as logged: on a jittered log or across a
+    bridged gap each uses the actual steps (``variable_step`` rules: Adams weights of
+    the actual nodes, a step h_n per interval for RK_s and T); on a uniform grid
+    their fixed coefficients. Which one is in ``LogEvaluation.notes``. The norms
+    weight the samples by their steps on non-uniform time (:mod:`sampledyn.errors`).
     """
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
-    _refuse_nonuniform(data)
+    notes = _time_base(data, [get_method(name) for name in methods])
     segments = data.segments
     if len(segments) > 1 and any(get_method(name).estimates_params for name in methods):
         raise LogFormatError(
@@ -232,4 +248,4 @@ def evaluate_log(
             row.update(_norms(err, data, _mask(data.valid, method.history), norm, after))
             rows.append(row)
     msgs = tuple(dict.fromkeys(str(w.message) for w in caught))
-    return LogEvaluation(rows, estimation, msgs)
+    return LogEvaluation(rows, estimation, msgs, notes)

@@ -60,12 +60,19 @@ def synthetic_log(
     eta_pct: float = 0.5,
     v_pct: float = 0.5,
     seed: int = 0,
+    jitter: float = 0.0,
+    clock: float = 1e-4,
 ) -> Any:
     """A log of ``vehicle`` under :func:`survey_input` as a pandas DataFrame.
 
     Columns: ``t[s]``, the 12 states (``x[m]``, ..., ``phi[deg]``, ..., ``p[deg/s]``,
     ...; psi wrapped to [-180, 180) deg), ``n1[rpm]`` ... One row per sample,
     ``T / h + 1`` rows.
+
+    With ``jitter`` > 0 (s) the stamps are those of a logger whose clock ticks every
+    ``clock`` seconds: ``n h`` plus a whole number of ticks within +-jitter, drawn
+    uniformly (seeded; the first and last stamps stay inside [0, T]); states and
+    inputs are exact at those stamps (simulated at the clock's period).
     """
     import pandas as pd
 
@@ -74,7 +81,19 @@ def synthetic_log(
     from ..simulate import simulate
 
     model = load_vehicle(vehicle)
-    traj = simulate(model, survey_input(model), T=T, h=h)
+    if jitter > 0:
+        ticks = int(round(h / clock))
+        if ticks < 1 or abs(ticks * clock - h) > 1e-9 * h:
+            raise ValueError(f"`h` = {h} s must be a whole number of `clock` = {clock} s ticks.")
+        fine = simulate(model, survey_input(model), T=T, h=clock, certify=False)
+        n = int(round(T / h)) + 1
+        reach = int(jitter / clock + 1e-9)
+        shift = np.random.default_rng([seed, 1]).integers(-reach, reach + 1, n)
+        shift[0], shift[-1] = abs(shift[0]), -abs(shift[-1])
+        at = ticks * np.arange(n) + shift
+        traj = fine.replace(t=fine.t[at], x=fine.x[at], u=fine.u[at], h=h, certificate=None)
+    else:
+        traj = simulate(model, survey_input(model), T=T, h=h)
     measured = add_noise(traj, eta_pct, v_pct, seed)
     columns: dict[str, Any] = {"t[s]": np.round(measured.t, 9)}
     for k, (name, unit) in enumerate(zip(model.state_names, model.state_units, strict=True)):

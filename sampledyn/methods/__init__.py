@@ -3,7 +3,8 @@ held over the predicted interval, ABu_s, and with its history rebuilt after an i
 jump, ABj_s), and the registry of their names.
 
 Every rule answers the questions of the :class:`Method` protocol itself (family,
-order, history, prediction, noise gain, prediction Jacobians, error constant, label);
+order, history, prediction on uniform and non-uniform time, noise gain, prediction
+Jacobians, error constant, label);
 other layers ask it instead of inspecting its class or parsing its name. Each family
 registers itself with :func:`register_family`; the estimated rules (Ee, ABe_s) are
 registered by :mod:`sampledyn.estimate`.
@@ -21,17 +22,27 @@ from ._registry import register_family as register_family
 from ._base import FixedRule as FixedRule
 from ._base import Method as Method
 from ._base import check_gain_args as check_gain_args
+from ._base import check_ratio as check_ratio
+from ._base import fixed_step as fixed_step
+from ._base import grid_steps as grid_steps
 from ._base import nan_rows as nan_rows
 from ._base import sample_f as sample_f
 from ._base import sample_jacobian as sample_jacobian
 from ._base import stage_inputs as stage_inputs
+from ._base import stencil_steps as stencil_steps
+from ._base import time_steps as time_steps
+from ._base import uniform_grid as uniform_grid
 from ._base import uniform_step as uniform_step
+from ._nodes import MAX_GAIN_ORDER as MAX_GAIN_ORDER
+from ._nodes import lagrange_integrals as lagrange_integrals
 from ._adams import STABILITY_INTERVAL_MIN as STABILITY_INTERVAL_MIN
 from ._adams import AdamsBashforth as AdamsBashforth
 from ._adams import Euler as Euler
 from ._adams import ab_coefficients as ab_coefficients
 from ._adams import ab_error_constant as ab_error_constant
 from ._adams import ab_filter as ab_filter
+from ._adams import ab_filter_steps as ab_filter_steps
+from ._adams import ab_gain_factor as ab_gain_factor
 from ._adams import ab_stability_interval as ab_stability_interval
 from ._adams import lagged_jacobians as lagged_jacobians
 from ._adams import warn_if_unstable as warn_if_unstable
@@ -42,9 +53,11 @@ from ._runge_kutta import ButcherTableau as ButcherTableau
 from ._runge_kutta import RungeKutta as RungeKutta
 from ._held import HeldInputAdamsBashforth as HeldInputAdamsBashforth
 from ._jump import JumpAwareAdamsBashforth as JumpAwareAdamsBashforth
+from ._jump import collocation_weights as collocation_weights
 # isort: on
 
 __all__ = [
+    "MAX_GAIN_ORDER",
     "STABILITY_INTERVAL_MIN",
     "TABLEAUX",
     "AdamsBashforth",
@@ -61,18 +74,28 @@ __all__ = [
     "ab_coefficients",
     "ab_error_constant",
     "ab_filter",
+    "ab_filter_steps",
+    "ab_gain_factor",
     "ab_stability_interval",
     "available_methods",
     "check_gain_args",
+    "check_ratio",
+    "collocation_weights",
     "describe_methods",
     "families",
+    "fixed_step",
     "get_method",
+    "grid_steps",
     "lagged_jacobians",
+    "lagrange_integrals",
     "nan_rows",
     "register_family",
     "sample_f",
     "sample_jacobian",
     "stage_inputs",
+    "stencil_steps",
+    "time_steps",
+    "uniform_grid",
     "uniform_step",
     "warn_if_unstable",
 ]

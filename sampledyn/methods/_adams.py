@@ -33,7 +33,17 @@ import numpy as np
 from numba import njit
 
 from .._trajectory import Trajectory
-from ._base import FixedRule, check_gain_args, sample_f, sample_jacobian, uniform_step
+from ._base import (
+    FixedRule,
+    check_gain_args,
+    check_ratio,
+    fixed_step,
+    sample_f,
+    sample_jacobian,
+    time_steps,
+    uniform_stencils,
+)
+from ._nodes import corner_patterns, history_nodes, lagrange_integrals, pattern_nodes
 from ._registry import register_family
 
 __all__ = [
@@ -44,7 +54,9 @@ __all__ = [
     "ab_coefficients",
     "ab_error_constant",
     "ab_filter",
+    "ab_gain_factor",
     "ab_stability_interval",
+    "fill_lagged",
     "lagged_jacobians",
     "warn_if_unstable",
 ]
@@ -137,55 +149,72 @@ def ab_filter(x: np.ndarray, f: np.ndarray, h: float, weights: np.ndarray) -> np
     ndarray, shape (N, nx): row k predicts x[k] from samples k-1, ..., k-s; the first
     s rows are NaN.
     """
+    hw = (float(h) * np.asarray(weights, dtype=float))[None, :]  # one row: every k
+    return ab_filter_steps(x, f, hw)
+
+
+def ab_filter_steps(x: np.ndarray, f: np.ndarray, hw: np.ndarray) -> np.ndarray:
+    """:func:`ab_filter` with weights per prediction: row k (k >= s) is
+    ``x[k-1] + sum_i hw[k-s, i] f[k-1-i]``; ``hw``, shape (N - s, s), holds
+    ``h_n beta_{n,i}`` (:meth:`AdamsRule.step_weights`), or shape (1, s) for the same
+    weights on every row. Shape (N, nx), NaN rows 0..s-1.
+    """
     n, nx = x.shape
-    s = len(weights)
+    s = hw.shape[1]
     out = np.full((n, nx), np.nan)
     if n <= s:
         return out
     _ab_fir(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(f, dtype=float),
-        float(h),
-        np.ascontiguousarray(weights, dtype=float),
+        np.ascontiguousarray(hw, dtype=float),
         out,
     )
     return out
 
 
 @njit(cache=True)
-def _ab_fir(x, f, h, w, out):  # pragma: no cover - compiled
-    """out[k] = x[k-1] + sum_i (h w[i]) f[k-1-i] for k >= s, row by row (the inner
-    loops run over contiguous rows, which the compiler vectorises)."""
+def _ab_fir(x, f, hw, out):  # pragma: no cover - compiled
+    """out[k] = x[k-1] + sum_i hw[k-s, i] f[k-1-i] for k >= s (hw[0] on every row if hw
+    has one row), row by row (the inner loops run over contiguous rows, which the
+    compiler vectorises)."""
     n, nx = x.shape
-    s = w.shape[0]
+    s = hw.shape[1]
+    per_row = hw.shape[0] > 1
     for k in range(s, n):
+        w = hw[k - s] if per_row else hw[0]
         xr = x[k - 1]
         o = out[k]
         for j in range(nx):
             o[j] = xr[j]
         for i in range(s):
-            c = h * w[i]
+            c = w[i]
             fr = f[k - 1 - i]
             for j in range(nx):
                 o[j] += c * fr[j]
 
 
-def lagged_jacobians(
-    lagged: list[np.ndarray], h: float, weights: np.ndarray, n: int, nx: int
-) -> np.ndarray:
-    """``phi[k, i] = [i == 0] I + h w_i J_i[k - s]`` for rows k >= s, NaN above.
+def fill_lagged(block: np.ndarray, lagged: list[np.ndarray], hw: np.ndarray) -> None:
+    """``block[r, i] = [i == 0] I + hw[r, i] J_i[r]`` in place, block shape (R, s, nx, nx),
+    ``lagged[i]`` shape (R, nx, nx), ``hw`` shape (R, s)."""
+    for i in range(hw.shape[1]):
+        block[:, i] = hw[:, i, None, None] * lagged[i]
+    block[:, 0] += np.eye(block.shape[-1])
+
+
+def lagged_jacobians(lagged: list[np.ndarray], hw: np.ndarray, n: int, nx: int) -> np.ndarray:
+    """``phi[k, i] = [i == 0] I + hw[k - s, i] J_i[k - s]`` for rows k >= s, NaN above.
 
     ``lagged[i]`` (shape (N - s, nx, nx)) is df/dx at the point the rule evaluates
-    for history lag i of the predictions of rows s..N-1 (empty for N <= s).
-    Shape (N, s, nx, nx).
+    for history lag i of the predictions of rows s..N-1 (empty for N <= s); ``hw``,
+    shape (N - s, s) (or anything broadcasting to it, (s,) for N <= s), the step
+    weights ``h_n beta_{n,i}``. Shape (N, s, nx, nx).
     """
-    s = len(weights)
+    s = np.shape(hw)[-1]
     phi = np.full((n, s, nx, nx), np.nan)
     if n <= s:
         return phi
-    for i in range(s):
-        phi[s:, i] = (h * weights[i]) * lagged[i]
-    phi[s:, 0] += np.eye(nx)
+    fill_lagged(phi[s:], lagged, np.broadcast_to(hw, (n - s, s)))
     return phi
 
 
@@ -214,6 +243,16 @@ def step(t, z, u, p, h, out):
         for j in range(nx):
             out[nx + j] = f0[j]
 """
+
+
+@lru_cache(maxsize=128)
+def ab_gain_factor(s: int, ratio: float) -> float:
+    """``sup h_n sum_i |beta_{n,i}|`` over the step patterns whose s steps (the predicted
+    step and the s - 1 history steps) lie in [h_max / ratio, h_max], in units of h_max:
+    the noise gain of the variable-step AB_s is this times ``h_max L``. Equal to a_s
+    for ratio = 1 (see :mod:`sampledyn.methods._nodes` for why the corners suffice)."""
+    tau, hn = pattern_nodes(corner_patterns(s, ratio))
+    return float((hn * np.abs(lagrange_integrals(tau, 0.0, 1.0)).sum(axis=1)).max())
 
 
 @dataclass(frozen=True)
@@ -269,11 +308,34 @@ class AdamsRule(FixedRule):
         """gamma_s: local error ``gamma_s h^{s+1} x^{(s+1)}`` where the history is smooth."""
         return ab_error_constant(self.order)
 
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
-        """``G = h a_s L`` (eqs. (11)-(12), (24)-(25); the printed (11) lacks the factor h,
-        which the dimensions require)."""
+    @property
+    def step_rule(self) -> str:
+        return "Adams weights of the actual nodes (Lagrange integrals over [t_n, t_n+1])"
+
+    def step_weights(self, data: Trajectory, h: float | None) -> np.ndarray:
+        """``h_n beta_{n,i}`` of the predictions of rows s..N-1 (n = s-1..N-2), shape
+        (N - s, s), newest first (N > s).
+
+        ``h`` is :func:`fixed_step` of ``data``: on a uniform grid every row is
+        ``h a_i`` (the fixed coefficients, exactly as the fixed-step rule forms them);
+        otherwise the Lagrange weights of the actual nodes (:mod:`._nodes`).
+        """
+        s, n = self.order, data.n_samples
+        if h is not None:
+            return np.broadcast_to(h * self.weights, (n - s, s))
+        time_steps(data)  # strictly increasing, or a named error
+        tau, hn = history_nodes(data.t, s, np.arange(s - 1, n - 1))
+        return hn[:, None] * lagrange_integrals(tau, 0.0, 1.0)
+
+    def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
+        """``G = h a_s L`` on a uniform grid (eqs. (11)-(12), (24)-(25); the printed (11)
+        lacks the factor h, which the dimensions require). With steps up to h within a
+        factor ``ratio`` of each other in every stencil: ``h A_s(ratio) L`` with
+        A_s = :func:`ab_gain_factor` (the worst step pattern; A_s(1) = a_s)."""
         h, L = check_gain_args(h, lipschitz)
-        return h * float(self.a_s) * L
+        if check_ratio(ratio) == 1.0:
+            return h * float(self.a_s) * L
+        return h * ab_gain_factor(self.order, check_ratio(ratio)) * L
 
 
 @dataclass(frozen=True)
@@ -304,12 +366,18 @@ class AdamsBashforth(AdamsRule):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """One-step-ahead predictions, shape (N, nx), NaN in the first s rows; f is
-        evaluated once per sample (shared through ``cache``).
+        evaluated once per sample (shared through ``cache``). On a non-uniform grid the
+        weights are those of the actual nodes (:meth:`step_weights`).
 
         ``signal`` is not used: AB needs no input between samples.
         """
-        h = uniform_step(data, self.name)
-        return ab_filter(data.x, sample_f(model, data, cache), h, self.weights)
+        f = sample_f(model, data, cache)
+        h = fixed_step(data)
+        if h is not None:
+            return ab_filter(data.x, f, h, self.weights)
+        if data.n_samples <= self.order:
+            return ab_filter(data.x, f, data.h, self.weights)  # NaN rows only
+        return ab_filter_steps(data.x, f, self.step_weights(data, None))
 
     def prediction_jacobians(
         self,
@@ -320,14 +388,15 @@ class AdamsBashforth(AdamsRule):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """``Phi_{k,0} = I + h a_0 F(x_{k-1})``, ``Phi_{k,i} = h a_i F(x_{k-1-i})``,
-        shape (N, s, nx, nx) (F = df/dx at the samples)."""
-        h = uniform_step(data, self.name)
+        shape (N, s, nx, nx) (F = df/dx at the samples; ``h_n beta_{n,i}`` in place of
+        ``h a_i`` on a non-uniform grid)."""
         n, s = data.n_samples, self.order
         if n <= s:
-            return lagged_jacobians([], h, self.weights, n, data.nx)
+            return lagged_jacobians([], self.weights, n, data.nx)
+        hw = self.step_weights(data, fixed_step(data))
         jac = sample_jacobian(model, data, cache)
         lagged = [jac[s - 1 - i : n - 1 - i] for i in range(s)]
-        return lagged_jacobians(lagged, h, self.weights, n, data.nx)
+        return lagged_jacobians(lagged, hw, n, data.nx)
 
     def truncation_differences(
         self,
@@ -337,8 +406,10 @@ class AdamsBashforth(AdamsRule):
         *,
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
-        """``nabla^s f`` along the samples, shape (N - s, nx)."""
-        return np.diff(sample_f(model, data, cache), n=self.order, axis=0)
+        """``nabla^s f`` along the samples, shape (M, nx): every stencil (M = N - s) on a
+        uniform grid, else the stencils whose s steps all equal ``data.h``."""
+        d = np.diff(sample_f(model, data, cache), n=self.order, axis=0)
+        return d if fixed_step(data) is not None else d[uniform_stencils(data, self.order)]
 
     # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
 

@@ -17,23 +17,34 @@ which rule it is lives in the rule's own class; every other layer asks the objec
                        predicts (Ee, ABe_s); such a rule has no noise bound and also
                        offers ``estimate_and_predict(model, data, signal, *, after)``
 ``sample_weights``     w with x^_{n+1} = x_n + h sum_i w_i f(t_{n-i}, x_{n-i}, u_{n-i})
-                       exactly, newest first (AB_s, Euler, RK1), else None
+                       exactly on a uniform grid, newest first (AB_s, Euler, RK1),
+                       else None
 ``first_order_gain``   c of the noise gain G = c h L + O((h L)^2) (a_s = sum |a_i| for
                        AB_s), None for estimated rules
 ``error_constant``     C of the leading local error C h^{s+1} x^{(s+1)}, None where the
                        rule has no single constant (RK_s) or is estimated
 ``predict``            x^ for every sample, shape (N, nx), NaN rows where history lacks
-``noise_gain``         G(h, L) of the disturbed-error bound (24)-(25)
+``noise_gain``         G(h, L, ratio) of the disturbed-error bound (24)-(25): h the
+                       largest step, ratio the largest step ratio in a stencil
+                       (:func:`stencil_steps`; 1 on a uniform grid)
 ``prediction_jacobians``  d x^_{n+1} / d x_{n-i}, i < history: the linearisation used
                        by the path-based noise prediction
 ``truncation_differences``  s-th backward differences of the derivative values the
                        rule extrapolates (leading local error = C h times them), or None
+``variable_step``      True if ``predict`` takes non-uniform sample times (steps
+                       ``h_n = t_{n+1} - t_n`` as they come); False if the rule
+                       refuses them (:func:`uniform_step`)
+``step_rule``          how the rule uses the actual steps, for printing (e.g. "Lagrange
+                       weights of the logged nodes")
 =====================  ================================================================
 
 Prediction takes the sample times ``data.t`` as they come: a rule decides itself
-whether it can work on a non-uniform grid. The fixed-step rules here cannot yet and
-raise (:func:`uniform_step`); variable-step versions belong in the rules, not in their
-callers.
+whether it can work on a non-uniform grid, and nobody else checks the grid. On a grid
+that is uniform to the rounding of t (:func:`fixed_step`) every rule runs its
+fixed-step code (fixed coefficients, one h); elsewhere the variable-step rules use
+the actual steps (AB_s family: the Lagrange weights of the actual nodes,
+:mod:`sampledyn.methods._nodes`; one-step rules: h_n per interval), and the others
+raise naming the step (:func:`uniform_step`).
 
 Rules that are discrete-time state-space systems z+ = F(z, u) (every fixed rule but
 ABj_s) also answer, for :func:`sampledyn.discretize`:
@@ -65,14 +76,21 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from .._trajectory import Trajectory
+from .._trajectory import Trajectory, steps_on_grid, uniform_grid
 
 __all__ = [
     "Method",
     "check_gain_args",
+    "check_ratio",
+    "fixed_step",
+    "grid_steps",
     "sample_f",
     "sample_jacobian",
     "stage_inputs",
+    "stencil_steps",
+    "time_steps",
+    "uniform_grid",
+    "uniform_stencils",
     "uniform_step",
 ]
 
@@ -108,6 +126,12 @@ class Method(Protocol):
     @property
     def error_constant(self) -> Fraction | None: ...
 
+    @property
+    def variable_step(self) -> bool: ...
+
+    @property
+    def step_rule(self) -> str: ...
+
     def predict(
         self,
         model: Any,
@@ -120,9 +144,11 @@ class Method(Protocol):
         where the history is missing (the first ``history`` rows)."""
         ...
 
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+    def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """Noise gain G, shape (k, k), of the bound (24)-(25) for blockwise Lipschitz
-        constants ``lipschitz`` (k, k) at sampling period h (s)."""
+        constants ``lipschitz`` (k, k): h (s) the sampling period, or on a non-uniform
+        grid its largest step; ``ratio`` >= 1 the largest ratio of the longest to the
+        shortest step in one prediction's stencil (:func:`stencil_steps`)."""
         ...
 
     def prediction_jacobians(
@@ -169,6 +195,11 @@ class FixedRule:
         """None unless the rule is a fixed filter of f at the samples."""
         return None
 
+    @property
+    def variable_step(self) -> bool:
+        """True: the fixed rules here predict on non-uniform time stamps too."""
+        return True
+
     def truncation_differences(
         self,
         model: Any,
@@ -183,6 +214,81 @@ class FixedRule:
 
 # ---------------------------------------------------------------------------------
 # shared pieces
+
+
+def uniform_stencils(data: Trajectory, width: int) -> np.ndarray:
+    """Per window of ``width`` consecutive steps (N - width windows, the r-th starting
+    at t_r): True where all of them equal ``data.h`` (as :func:`uniform_grid`)."""
+    on = steps_on_grid(data.t, data.h) if data.n_samples > 1 else np.zeros(0, dtype=bool)
+    if on.size < width:
+        return np.zeros(0, dtype=bool)
+    return np.asarray(np.lib.stride_tricks.sliding_window_view(on, width).all(axis=1))
+
+
+def fixed_step(data: Trajectory) -> float | None:
+    """``data.h`` if ``data.t`` is uniform with that step (:func:`uniform_grid`), else
+    None (then a rule predicts on the steps of :func:`time_steps`)."""
+    return float(data.h) if uniform_grid(data.t, data.h) else None
+
+
+def grid_steps(data: Trajectory) -> tuple[float | None, np.ndarray]:
+    """``(h, steps)``: what a one-step rule needs to step each interval, steps shape
+    (N - 1,). On a uniform grid (:func:`fixed_step`) h and every step equal ``data.h``
+    exactly (so ``steps * c`` gives the bits of ``h * c``); otherwise h is None and
+    the steps are the actual ones (:func:`time_steps`)."""
+    h = fixed_step(data)
+    if h is not None:
+        return h, np.full(max(data.n_samples - 1, 0), h)
+    return None, time_steps(data)
+
+
+def time_steps(data: Trajectory) -> np.ndarray:
+    """The steps ``h_n = t_{n+1} - t_n`` (s), shape (N - 1,).
+
+    Raises
+    ------
+    ValueError
+        if the times do not increase strictly (naming the first such sample).
+    """
+    steps = np.diff(data.t)
+    bad = np.flatnonzero(~(steps > 0))
+    if bad.size:
+        n = int(bad[0])
+        raise ValueError(
+            f"`data.t` must increase strictly: t[{n + 1}] = {data.t[n + 1]:.9g} s does not "
+            f"follow t[{n}] = {data.t[n]:.9g} s. Sort the samples by time and remove "
+            "duplicate stamps."
+        )
+    return steps
+
+
+def stencil_steps(data: Trajectory, history: int) -> tuple[float, float]:
+    """``(h_max, ratio)`` of ``data`` for a rule that looks ``history`` samples back: the
+    largest step (s), and the largest ratio of the longest to the shortest step among
+    the ``history`` steps ``h_{n-history+1}, ..., h_n`` one prediction spans (its
+    history steps and the predicted step). ``(data.h, 1.0)`` on a uniform grid
+    (:func:`uniform_grid`). These are the arguments of :meth:`Method.noise_gain`.
+    """
+    if fixed_step(data) is not None:
+        return float(data.h), 1.0
+    steps = time_steps(data)
+    w = min(max(int(history), 1), steps.size)
+    windows = np.lib.stride_tricks.sliding_window_view(steps, w)
+    return float(steps.max()), float((windows.max(axis=1) / windows.min(axis=1)).max())
+
+
+def check_ratio(ratio: Any) -> float:
+    """``ratio`` of :meth:`Method.noise_gain`, checked (a finite number >= 1)."""
+    if not (
+        isinstance(ratio, int | float | np.floating | np.integer)
+        and np.isfinite(ratio)
+        and ratio >= 1.0
+    ):
+        raise ValueError(
+            f"step `ratio` must be a finite number >= 1 (longest / shortest step in a "
+            f"stencil, 1 on a uniform grid), got {ratio!r}."
+        )
+    return float(ratio)
 
 
 def uniform_step(data: Trajectory, method: str) -> float:
@@ -245,15 +351,22 @@ def sample_jacobian(
     return _cached("jac", model, data, cache, lambda: model.jacobian(data.t, data.x, data.u))
 
 
-def stage_inputs(data: Trajectory, signal: Any, c: float) -> np.ndarray:
-    """Input at ``t_n + c h`` for every interval n = 0..N-2, shape (N - 1, nu).
+def stage_inputs(
+    data: Trajectory, signal: Any, c: float, steps: np.ndarray | None = None
+) -> np.ndarray:
+    """Input at ``t_n + c h_n`` for every interval n = 0..N-2, shape (N - 1, nu).
 
-    From ``signal`` (its held part taken at ``t_n``) when given, else the sampled
-    input held over the interval (zero-order hold).
+    ``steps`` are the steps h_n, shape (N - 1,), on a non-uniform grid; None on a
+    uniform one (then ``signal.intersample`` gets the one offset ``c data.h``, as the
+    Signal protocol has it; a non-uniform grid needs a signal that takes an array of
+    offsets, as :class:`sampledyn.signals.Signal` does). From ``signal`` (its held
+    part taken at ``t_n``) when given, else the sampled input held over the interval
+    (zero-order hold).
     """
     if signal is None or c == 0.0:
         return data.u[:-1]
-    u = np.asarray(signal.intersample(data.t[:-1], c * data.h), dtype=float)
+    tau = c * data.h if steps is None else c * steps
+    u = np.asarray(signal.intersample(data.t[:-1], tau), dtype=float)
     if u.shape != (data.n_samples - 1, data.nu):
         raise ValueError(
             f"`signal` gives inputs of shape {u.shape[1:]}, the data have nu = {data.nu}."

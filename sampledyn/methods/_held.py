@@ -24,11 +24,18 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._adams import AdamsRule, lagged_jacobians
-from ._base import nan_rows, sample_f, sample_jacobian, uniform_step
+from ._adams import AdamsRule, fill_lagged, lagged_jacobians
+from ._base import fixed_step, nan_rows, sample_f, sample_jacobian, uniform_stencils
 from ._registry import register_family
 
-__all__ = ["HeldInputAdamsBashforth", "held_history"]
+__all__ = ["JACOBIAN_CHUNK_BYTES", "HeldInputAdamsBashforth", "held_history"]
+
+# Size (bytes) of the largest array of one block of prediction Jacobians, ABj's forward
+# derivatives through the sweeps, (rows, s, s, nx, nx): the rows are linearised block
+# by block, so the memory beyond the (N, s, nx, nx) result stays near 4.4 times this
+# whatever N (35 MiB measured for ABj6 on a 12-state vehicle, against 113 KiB per
+# sample, 5.6 GB at N = 5e4, with all rows at once).
+JACOBIAN_CHUNK_BYTES = 8 * 2**20
 
 
 def held_history(
@@ -94,23 +101,32 @@ class HeldInputAdamsBashforth(AdamsRule):
     FAMILY: ClassVar[str] = "ABu"
 
     def _history(
-        self, model: Any, data: Trajectory, cache: Any, derivatives: bool
+        self,
+        model: Any,
+        data: Trajectory,
+        cache: Any,
+        h: float | None,
+        rows: tuple[int, int],
+        derivatives: bool,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """The f-history of the predictions of rows s..N-1 (N > s), ``(g, rows, d, jac)``.
+        """The f-history of the predictions of rows s + lo .. s + hi - 1 (``rows`` =
+        (lo, hi); N > s), ``(g, rebuilt, d, jac)``.
 
-        g, shape (N - s, s, nx): ``g[r, i] = f(t_{n-i}, x_{n-i}, u_n)``, n = r + s - 1.
-        jac, shape (N - s, s, nx, nx): df/dx at the same points (with ``derivatives``).
-        rows, d: where a subclass rebuilds the history (indices into g) and, there, the
-        derivatives ``d[r, j, l] = dg_j / dx_{n-l}``; none here.
+        g, shape (hi - lo, s, nx): ``g[r, i] = f(t_{n-i}, x_{n-i}, u_n)``, n = s - 1 + lo + r.
+        jac, shape (hi - lo, s, nx, nx): df/dx at the same points (with ``derivatives``).
+        rebuilt, d: where a subclass rebuilds the history (indices into g) and, there,
+        the derivatives ``d[r, j, l] = dg_j / dx_{n-l}``; none here. ``h`` is
+        :func:`fixed_step` of the data (None on a non-uniform grid).
         """
-        s, n = self.order, data.n_samples
+        s = self.order
+        first, stop = s - 1 + rows[0], s - 1 + rows[1]
         f = sample_f(model, data, cache)
-        g = np.stack([held_history(model.f, f, data, s - 1, i, n - 1) for i in range(s)], 1)
+        g = np.stack([held_history(model.f, f, data, first, i, stop) for i in range(s)], 1)
         jac = None
         if derivatives:
             j = sample_jacobian(model, data, cache)
             jac = np.stack(
-                [held_history(model.jacobian, j, data, s - 1, i, n - 1) for i in range(s)], 1
+                [held_history(model.jacobian, j, data, first, i, stop) for i in range(s)], 1
             )
         return g, np.zeros(0, dtype=np.int64), None, jac
 
@@ -122,19 +138,21 @@ class HeldInputAdamsBashforth(AdamsRule):
         *,
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
-        """One-step-ahead predictions, shape (N, nx), NaN in the first s rows.
+        """One-step-ahead predictions, shape (N, nx), NaN in the first s rows; on a
+        non-uniform grid with the weights of the actual nodes (:meth:`step_weights`).
 
         ``signal`` is not used: the input over the interval is the held sample u_n.
         """
-        h = uniform_step(data, self.name)
         s, n = self.order, data.n_samples
         out = nan_rows(data, (data.nx,))
         if n <= s:
             return out
-        g = self._history(model, data, cache, derivatives=False)[0]
+        h = fixed_step(data)
+        hw = self.step_weights(data, h)
+        g = self._history(model, data, cache, h, (0, n - s), derivatives=False)[0]
         acc = np.array(data.x[s - 1 : n - 1], dtype=float)
-        for k, w in enumerate(self.weights):
-            acc += (h * w) * g[:, k]
+        for k in range(s):
+            acc += hw[:, k, None] * g[:, k]
         out[s:] = acc
         return out
 
@@ -147,19 +165,33 @@ class HeldInputAdamsBashforth(AdamsRule):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """``Phi_{k,0} = I + h a_0 F(x_{k-1}, u_{k-1})``, ``Phi_{k,i} = h a_i
-        F(x_{k-1-i}, u_{k-1})``, shape (N, s, nx, nx); where a subclass rebuilds the
-        history, ``Phi_{k,l} = [l = 0] I + h sum_j a_j dg_j / dx_{k-1-l}``."""
-        h = uniform_step(data, self.name)
-        s, n = self.order, data.n_samples
+        F(x_{k-1-i}, u_{k-1})``, shape (N, s, nx, nx) (``h_n beta_{n,i}`` in place of
+        ``h a_i`` on a non-uniform grid); where a subclass rebuilds the history,
+        ``Phi_{k,l} = [l = 0] I + h sum_j a_j dg_j / dx_{k-1-l}``.
+
+        Computed in blocks of rows (:data:`JACOBIAN_CHUNK_BYTES`): memory beyond the
+        result is bounded whatever N.
+        """
+        s, n, nx = self.order, data.n_samples, data.nx
         if n <= s:
-            return lagged_jacobians([], h, self.weights, n, data.nx)
-        _, rows, d, jac = self._history(model, data, cache, derivatives=True)
-        assert jac is not None
-        phi = lagged_jacobians([jac[:, i] for i in range(s)], h, self.weights, n, data.nx)
-        if rows.size and d is not None:
-            rebuilt = h * np.einsum("j,rjlab->rlab", self.weights, d)
-            rebuilt[:, 0] += np.eye(data.nx)
-            phi[s + rows] = rebuilt
+            return lagged_jacobians([], self.weights, n, nx)
+        h = fixed_step(data)
+        hw = self.step_weights(data, h)
+        phi = nan_rows(data, (s, nx, nx))
+        block = max(1, JACOBIAN_CHUNK_BYTES // (8 * s * s * nx * nx))
+        for lo in range(0, n - s, block):
+            hi = min(lo + block, n - s)
+            _, rebuilt, d, jac = self._history(model, data, cache, h, (lo, hi), derivatives=True)
+            assert jac is not None
+            out = phi[s + lo : s + hi]
+            fill_lagged(out, [jac[:, i] for i in range(s)], hw[lo:hi])
+            if rebuilt.size and d is not None:
+                if h is not None:
+                    rows = h * np.einsum("j,rjlab->rlab", self.weights, d)
+                else:
+                    rows = np.einsum("rj,rjlab->rlab", hw[lo:hi][rebuilt], d)
+                rows[:, 0] += np.eye(nx)
+                out[rebuilt] = rows
         return phi
 
     def truncation_differences(
@@ -170,11 +202,13 @@ class HeldInputAdamsBashforth(AdamsRule):
         *,
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
-        """``nabla^s`` of ``t -> f(t, x(t), u_n)`` at t_n, for n = s..N-1, shape (N - s, nx)."""
+        """``nabla^s`` of ``t -> f(t, x(t), u_n)`` at t_n, for n = s..N-1, shape (M, nx):
+        every n on a uniform grid, else those whose s steps back all equal ``data.h``."""
         s = self.order
         f = sample_f(model, data, cache)
         oldest_first = [held_history(model.f, f, data, s, i) for i in range(s, -1, -1)]
-        return np.diff(np.stack(oldest_first), n=s, axis=0)[0]
+        d = np.diff(np.stack(oldest_first), n=s, axis=0)[0]
+        return d if fixed_step(data) is not None else d[uniform_stencils(data, s)]
 
     # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
 

@@ -36,11 +36,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._base import check_gain_args, sample_f
+from ._base import check_gain_args, check_ratio, fixed_step, sample_f, uniform_stencils
 from ._held import HeldInputAdamsBashforth
+from ._nodes import corner_patterns, history_nodes, lagrange_integrals, pattern_nodes
 from ._registry import register_family
 
-__all__ = ["JumpAwareAdamsBashforth", "backward_weights"]
+__all__ = ["JumpAwareAdamsBashforth", "backward_weights", "collocation_weights"]
 
 
 @lru_cache(maxsize=32)
@@ -101,45 +102,60 @@ class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
     # -- the rule --------------------------------------------------------------------
 
     def _history(
-        self, model: Any, data: Trajectory, cache: Any, derivatives: bool
+        self,
+        model: Any,
+        data: Trajectory,
+        cache: Any,
+        h: float | None,
+        rows: tuple[int, int],
+        derivatives: bool,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
         """ABu_s's history, rebuilt (see the module docstring) on the predictions whose
         history holds an input change; with ``derivatives`` also d there, forward mode
-        through the sweeps."""
-        g, _, _, jac = super()._history(model, data, cache, derivatives)
-        s, h = self.order, data.h
-        n = np.arange(s - 1, data.n_samples - 1)
+        through the sweeps. On a non-uniform grid (``h`` None) the collocation weights
+        are those of the actual nodes (:func:`collocation_weights`)."""
+        g, _, _, jac = super()._history(model, data, cache, h, rows, derivatives)
+        s = self.order
+        n = np.arange(s - 1 + rows[0], s - 1 + rows[1])
         moved = np.zeros(n.size, dtype=bool)
         for i in range(1, s):
             moved |= (data.u[n - i] != data.u[n]).any(axis=1)
-        rows = np.flatnonzero(moved)
+        rebuilt = np.flatnonzero(moved)
         d = None
         if jac is not None:
-            d = np.zeros((rows.size, s, s, data.nx, data.nx))
+            d = np.zeros((rebuilt.size, s, s, data.nx, data.nx))
             for i in range(s):
-                d[:, i, i] = jac[rows, i]
-        if rows.size == 0:
-            return g, rows, d, jac
-        c = np.array(backward_weights(s), dtype=float)[1:]  # rows j = 1..s-1
-        nn = n[rows]
+                d[:, i, i] = jac[rebuilt, i]
+        if rebuilt.size == 0:
+            return g, rebuilt, d, jac
+        nn = n[rebuilt]
+        step: Any  # h, or h_n per rebuilt row shaped to broadcast over the sweep
+        if h is not None:
+            c = np.array(backward_weights(s), dtype=float)[1:]  # rows j = 1..s-1
+            spec, step = "jk,", h
+        else:
+            tau, hn = history_nodes(data.t, s, nn)
+            c = collocation_weights(tau)
+            spec, step = "rjk,", hn[:, None, None]
         xn, un = data.x[nn], data.u[nn]
         tj = data.t[nn[:, None] - np.arange(1, s)[None, :]].reshape(-1)  # t_{n-j}
         uj = np.repeat(un, s - 1, axis=0)
-        gm = g[rows]
+        gm = g[rebuilt]
         eye = np.eye(data.nx)
         for _ in range(s - 1):
-            y = (xn[:, None, :] - h * np.einsum("jk,rkx->rjx", c, gm)).reshape(-1, data.nx)
+            y = (xn[:, None, :] - step * np.einsum(spec + "rkx->rjx", c, gm)).reshape(-1, data.nx)
             if d is not None:
-                dy = -h * np.einsum("jk,rklab->rjlab", c, d)
+                dstep = step if h is not None else step[..., None, None]
+                dy = -dstep * np.einsum(spec + "rklab->rjlab", c, d)
                 dy[:, :, 0] += eye
-                jy = np.asarray(model.jacobian(tj, y, uj)).reshape(rows.size, s - 1, *eye.shape)
+                jy = np.asarray(model.jacobian(tj, y, uj)).reshape(rebuilt.size, s - 1, *eye.shape)
                 d[:, 1:] = np.einsum("rjab,rjlbc->rjlac", jy, dy)
             gm = gm.copy()
-            gm[:, 1:] = np.asarray(model.f(tj, y, uj)).reshape(rows.size, s - 1, data.nx)
-        g[rows] = gm
-        return g, rows, d, jac
+            gm[:, 1:] = np.asarray(model.f(tj, y, uj)).reshape(rebuilt.size, s - 1, data.nx)
+        g[rebuilt] = gm
+        return g, rebuilt, d, jac
 
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+    def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """The larger of AB_s's ``h a_s L`` (rows whose history holds no jump) and the
         gain of a rebuilt history, ``h L + h sum_{j>=1} |a_j| E_j`` (it is Euler's
         ``h L`` to first order: after the sweeps the history depends on x_n alone).
@@ -147,19 +163,44 @@ class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
         E_j bounds the change of ``g_j - g_0`` per unit of noise: ``2 L`` at the start
         (ABu's history), then, sweep by sweep, ``E_j = h L (j L + sum_{k>=1} |c_jk| E_k)``
         (``y_j - x_n = -h (j g_0 + sum_k c_jk (g_k - g_0))``, as ``sum_k c_jk = j``).
+
+        With ``ratio`` > 1 (non-uniform steps up to h within that factor in a stencil)
+        the same recursion runs on every corner step pattern (the actual nodes'
+        ``beta_j``, ``c_jk`` and ``|tau_j|`` in place of ``a_j``, ``c_jk`` and j, the
+        predicted step h_n <= h) and G is the entrywise largest.
         """
         h, L = check_gain_args(h, lipschitz)
         s = self.order
-        c = np.abs(np.array(backward_weights(s), dtype=float))
-        e = [2.0 * L] * s  # e[0] unused: g_0 - g_0 = 0
+        if check_ratio(ratio) == 1.0:
+            c = np.abs(np.array(backward_weights(s), dtype=float))
+            e = [2.0 * L] * s  # e[0] unused: g_0 - g_0 = 0
+            for _ in range(s - 1):
+                e = [e[0]] + [
+                    h * L @ (j * L + sum((c[j, k] * e[k] for k in range(1, s)), np.zeros_like(L)))
+                    for j in range(1, s)
+                ]
+            w = np.abs(self.weights)
+            jump = h * L + h * sum((w[j] * e[j] for j in range(1, s)), np.zeros_like(L))
+            return np.maximum(h * float(self.a_s) * L, jump)
+        tau, hn = pattern_nodes(corner_patterns(s, check_ratio(ratio)))
+        beta = np.abs(lagrange_integrals(tau, 0.0, 1.0))
+        cp = np.abs(collocation_weights(tau))  # (P, s - 1, s), rows j = 1..s-1
+        hl = (h * hn)[:, None, None] * L  # h_n L, (P, k, k)
+        ep = [np.broadcast_to(2.0 * L, hl.shape)] * s
         for _ in range(s - 1):
-            e = [e[0]] + [
-                h * L @ (j * L + sum((c[j, k] * e[k] for k in range(1, s)), np.zeros_like(L)))
+            ep = [ep[0]] + [
+                hl
+                @ (
+                    -tau[:, j, None, None] * L
+                    + sum((cp[:, j - 1, k, None, None] * ep[k] for k in range(1, s)), 0 * hl)
+                )
                 for j in range(1, s)
             ]
-        w = np.abs(self.weights)
-        jump = h * L + h * sum((w[j] * e[j] for j in range(1, s)), np.zeros_like(L))
-        return np.maximum(h * float(self.a_s) * L, jump)
+        jump = hl + sum(
+            (beta[:, j, None, None] * (h * hn)[:, None, None] * ep[j] for j in range(1, s)), 0 * hl
+        )
+        plain = beta.sum(axis=1)[:, None, None] * hl
+        return np.maximum(plain, jump).max(axis=0)
 
     def truncation_differences(
         self,
@@ -170,14 +211,28 @@ class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """``nabla^s f`` along the samples whose difference stencil holds no input
-        change (there the rule is AB_s), shape (M, nx)."""
+        change (there the rule is AB_s) and, on a non-uniform grid, whose s steps all
+        equal ``data.h``; shape (M, nx)."""
         s = self.order
         d = np.diff(sample_f(model, data, cache), n=s, axis=0)
         u = data.u
         same = np.ones(d.shape[0], dtype=bool)
         for i in range(1, s + 1):
             same &= (u[s - i : u.shape[0] - i] == u[s:]).all(axis=1)
+        if fixed_step(data) is None:
+            same &= uniform_stencils(data, s)
         return d[same]
+
+
+def collocation_weights(tau: np.ndarray) -> np.ndarray:
+    """``c[r, j - 1, k]``: integral over [tau_j, 0] of the Lagrange basis polynomial of
+    node k on the nodes ``tau[r]`` (:func:`history_nodes`), j = 1..s-1; shape
+    (R, s - 1, s). On a uniform grid these are :func:`backward_weights` rows 1..s-1."""
+    rows, s = tau.shape
+    out = np.empty((rows, s - 1, s))
+    for j in range(1, s):
+        out[:, j - 1] = lagrange_integrals(tau, tau[:, j], 0.0)
+    return out
 
 
 register_family(

@@ -19,12 +19,25 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from .._trajectory import Trajectory
-from ._base import FixedRule, check_gain_args, nan_rows, stage_inputs, uniform_step
+from ._base import (
+    FixedRule,
+    check_gain_args,
+    check_ratio,
+    grid_steps,
+    nan_rows,
+    stage_inputs,
+)
 from ._registry import register_family
 
-__all__ = ["ButcherTableau", "RungeKutta", "TABLEAUX"]
+__all__ = ["RK_BLOCK", "TABLEAUX", "ButcherTableau", "RungeKutta"]
+
+# Intervals whose stages are computed together: the stage values of a block (a few
+# (RK_BLOCK, nx) arrays, 0.2 MB each for nx = 12) stay in cache from one stage to the
+# next instead of streaming every stage through memory.
+RK_BLOCK = 2048
 
 F = Fraction
 
@@ -212,6 +225,10 @@ class RungeKutta(FixedRule):
             (b * c for b, c in zip(self.tableau.b, self.tableau.c, strict=True)), Fraction(0)
         )
 
+    @property
+    def step_rule(self) -> str:
+        return "step h_n = t_n+1 - t_n per interval"
+
     def predict(
         self,
         model: Any,
@@ -221,17 +238,47 @@ class RungeKutta(FixedRule):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """One-step-ahead predictions, all intervals at once (one batch f per stage),
-        shape (N, nx), NaN in row 0."""
-        return self._stages(model, data, signal, derivatives=False)[0]
+        shape (N, nx), NaN in row 0; on a non-uniform grid each interval with its own
+        step h_n = t_{n+1} - t_n (stages at t_n + c_i h_n).
 
-    def _stages(
-        self, model: Any, data: Trajectory, signal: Any, *, derivatives: bool
-    ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Predictions and, with ``derivatives``, d x_hat[k] / d x[k-1] forward-mode
-        through the stages: ``dk_i = F(y_i) (I + h sum_j a_ij dk_j)``,
-        ``Phi = I + h sum_i b_i dk_i``."""
+        The intervals go in blocks of :data:`RK_BLOCK`; the stage points and the
+        increment are formed by one compiled pass each (:func:`_combine`), in the order
+        of the numpy expressions ``x_n + sum_j (h a_ij) k_j`` and ``x_n + h sum_i b_i k_i``
+        (so blocks change no result).
+        """
         tab = self.tableau
-        h = uniform_step(data, self.name)
+        if data.n_samples < 2:
+            return nan_rows(data, (data.nx,))
+        h, rows = grid_steps(data)
+        t0, x0 = data.t[:-1], data.x[:-1]
+        cs = [float(c) for c in tab.c]
+        times = {c: t0 + c * rows for c in set(cs)}
+        inputs = {
+            c: stage_inputs(data, signal, c, None if h is not None else rows) for c in set(cs)
+        }
+        a = [np.array([float(v) for v in tab.a[i][:i]]) for i in range(tab.stages)]
+        b = np.array([float(v) for v in tab.b])
+        out = np.empty(data.x.shape)
+        out[0] = np.nan
+        point = np.empty((min(RK_BLOCK, rows.size), data.nx))  # stage points, reused
+        for lo in range(0, rows.size, RK_BLOCK):
+            blk = slice(lo, min(lo + RK_BLOCK, rows.size))
+            xb, hb, pb = x0[blk], rows[blk], point[: blk.stop - lo]
+            ks: list[np.ndarray] = []
+            for i in range(tab.stages):
+                xi = _combine(xb, hb, a[i], tuple(ks), pb, False) if a[i].any() else xb
+                k = model.f(times[cs[i]][blk], xi, inputs[cs[i]][blk])
+                ks.append(np.require(k, dtype=float, requirements=("C", "W")))
+            _combine(xb, hb, b, tuple(ks), out[1 + lo : 1 + blk.stop], True)
+        return out
+
+    def _stages(self, model: Any, data: Trajectory, signal: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Predictions and d x_hat[k] / d x[k-1] forward-mode through the stages:
+        ``dk_i = F(y_i) (I + h sum_j a_ij dk_j)``, ``Phi = I + h sum_i b_i dk_i``
+        (h_n per interval on a non-uniform grid)."""
+        tab = self.tableau
+        h, steps = grid_steps(data)
+        hh, hhh = steps[:, None], steps[:, None, None]  # broadcast over x and over F
         t0 = data.t[:-1]
         x0 = data.x[:-1]
         eye = np.eye(data.nx)
@@ -239,35 +286,33 @@ class RungeKutta(FixedRule):
         dks: list[np.ndarray] = []
         for i in range(tab.stages):
             xi = x0.copy()
-            dxi = (
-                np.broadcast_to(eye, (x0.shape[0], data.nx, data.nx)).copy()
-                if derivatives
-                else None
-            )
+            dxi = np.broadcast_to(eye, (x0.shape[0], data.nx, data.nx)).copy()
             for j in range(i):
                 if tab.a[i][j] != 0:
-                    xi += (h * float(tab.a[i][j])) * ks[j]
-                    if dxi is not None:
-                        dxi += (h * float(tab.a[i][j])) * dks[j]
+                    xi += (hh * float(tab.a[i][j])) * ks[j]
+                    dxi += (hhh * float(tab.a[i][j])) * dks[j]
             ci = float(tab.c[i])
-            ui = stage_inputs(data, signal, ci)
-            ks.append(model.f(t0 + ci * h, xi, ui))
-            if dxi is not None:
-                dks.append(np.asarray(model.jacobian(t0 + ci * h, xi, ui)) @ dxi)
+            ti = t0 + ci * steps
+            ui = stage_inputs(data, signal, ci, None if h is not None else steps)
+            ks.append(model.f(ti, xi, ui))
+            dks.append(np.asarray(model.jacobian(ti, xi, ui)) @ dxi)
         out = nan_rows(data, (data.nx,))
         incr = sum(float(bi) * k for bi, k in zip(tab.b, ks, strict=True))
-        out[1:] = x0 + h * incr
-        if not derivatives:
-            return out, None
+        out[1:] = x0 + hh * incr
         phi = nan_rows(data, (1, data.nx, data.nx))
-        phi[1:, 0] = eye + h * sum(float(b) * dk for b, dk in zip(tab.b, dks, strict=True))
+        phi[1:, 0] = eye + hhh * sum(float(b) * dk for b, dk in zip(tab.b, dks, strict=True))
         return out, phi
 
-    def noise_gain(self, h: float, lipschitz: Any) -> np.ndarray:
+    def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """``G = h sum_i |b_i| K_i`` with ``K_i = L (I + h sum_j |a_ij| K_j)``: stage i
         moves by at most ``K_i delta``. For a scalar L and the classical RK4 this is
-        ``z + z^2/2 + ... + z^4/4!`` (z = h L), about ``h L`` whatever the order."""
+        ``z + z^2/2 + ... + z^4/4!`` (z = h L), about ``h L`` whatever the order.
+
+        A one-step rule: on a non-uniform grid each interval has this gain at its own
+        step, which grows with the step, so h = the largest step bounds them all and
+        ``ratio`` does not enter."""
         h, L = check_gain_args(h, lipschitz)
+        check_ratio(ratio)
         tab = self.tableau
         eye = np.eye(L.shape[0])
         ks: list[np.ndarray] = []
@@ -291,9 +336,9 @@ class RungeKutta(FixedRule):
     ) -> np.ndarray:
         """``d x_hat[k] / d x[k-1]`` through the stages of eq. (8), with the stage
         inputs :meth:`predict` uses; shape (N, 1, nx, nx)."""
-        phi = self._stages(model, data, signal, derivatives=True)[1]
-        assert phi is not None
-        return phi
+        if data.n_samples < 2:
+            return nan_rows(data, (1, data.nx, data.nx))
+        return self._stages(model, data, signal)[1]
 
     # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
 
@@ -371,3 +416,41 @@ register_family(
     default_max_order=max(TABLEAUX),
     max_order=max(TABLEAUX),
 )
+
+
+def _combine(
+    x0: np.ndarray,
+    h: np.ndarray,
+    coeffs: np.ndarray,
+    ks: tuple[np.ndarray, ...],
+    out: np.ndarray,
+    scale_sum: bool,
+) -> np.ndarray:
+    """One compiled pass over the intervals: ``x0 + sum_j (h_n c_j) k_j`` (stage points;
+    zero c_j skipped) or, with ``scale_sum``, ``x0 + h_n sum_j c_j k_j`` (the
+    increment), written into ``out``, shape (N - 1, nx), and returned."""
+    _combine_rows(x0, h, coeffs, ks, out, scale_sum)
+    return out
+
+
+@njit(cache=True)
+def _combine_rows(x0, h, coeffs, ks, out, scale_sum):  # pragma: no cover - compiled
+    # Term by term over whole arrays (j outer), each element summed in the order j =
+    # 0, 1, ... as the numpy expressions do, so the results are the same bits.
+    n, nx = x0.shape
+    for r in range(n):
+        for c in range(nx):
+            out[r, c] = 0.0 if scale_sum else x0[r, c]
+    for j in range(coeffs.shape[0]):
+        w = coeffs[j]
+        if w == 0.0 and not scale_sum:
+            continue
+        k = ks[j]
+        for r in range(n):
+            wr = w if scale_sum else h[r] * w
+            for c in range(nx):
+                out[r, c] += wr * k[r, c]
+    if scale_sum:
+        for r in range(n):
+            for c in range(nx):
+                out[r, c] = x0[r, c] + h[r] * out[r, c]

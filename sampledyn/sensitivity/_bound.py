@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..methods import fixed_step, stencil_steps
 from ..noise import noise_amplitudes
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
@@ -251,12 +252,21 @@ def assemble_bound(
     widened: JacobianReport,
     truncation: tuple[float, float],
     truncation_estimate: tuple[float, float] | None = None,
+    samples: Trajectory | None = None,
 ) -> ErrorBound:
-    """Put the parts of (24)-(25) together (no simulation)."""
+    """Put the parts of (24)-(25) together (no simulation).
+
+    ``samples``, the data the bound is for, matters only when their time is not
+    uniform: the gains are then taken at the largest step and the largest step
+    ratio of a stencil (:func:`sampledyn.methods.stencil_steps`), which the rule's
+    noise gain accounts for (or refuses with a message naming them)."""
     m = supported_method(method)
     a = np.array([np.linalg.norm(amplitudes[ETA]), np.linalg.norm(amplitudes[V])])
-    g = noise_gain(m, h, jacobians.lipschitz)
-    g_plus = noise_gain(m, h, widened.lipschitz)
+    h_gain, ratio = (h, 1.0)
+    if samples is not None and fixed_step(samples) is None:
+        h_gain, ratio = stencil_steps(samples, m.history)
+    g = noise_gain(m, h_gain, jacobians.lipschitz, ratio)
+    g_plus = noise_gain(m, h_gain, widened.lipschitz, ratio)
     first = _apply(g, a)
     with np.errstate(invalid="ignore"):
         second = _apply(g_plus, a) - first
@@ -366,4 +376,5 @@ def disturbed_error_bound(
         jac_plus,
         trunc,
         _truncation_estimate(model, m, clean),
+        samples=clean,
     )

@@ -122,7 +122,9 @@ def error_curves(
         cache: dict[Any, Any] = {}  # f and df/dx at these samples, shared by the rules
         for m in ms:
             p = path_prediction(model, m, clean, amp, signal, eta_pct, v_pct, cache=cache)
-            b = assemble_bound(m, clean.h, eta_pct, v_pct, amp, report, report_plus, p.truncation)
+            b = assemble_bound(
+                m, clean.h, eta_pct, v_pct, amp, report, report_plus, p.truncation, samples=clean
+            )
             store["truncation"][m.name][row] = p.truncation
             store["predicted_noise"][m.name][row] = p.noise
             store["predicted"][m.name][row] = (p.eta, p.v)

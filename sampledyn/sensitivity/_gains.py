@@ -65,7 +65,7 @@ def first_order_gain(method: Any) -> Fraction:
     return gain
 
 
-def noise_gain(method: Any, h: float, lipschitz: Any) -> np.ndarray:
+def noise_gain(method: Any, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
     """Noise gain G of ``method`` at sampling period ``h`` (see the module docstring).
 
     Parameters
@@ -73,13 +73,22 @@ def noise_gain(method: Any, h: float, lipschitz: Any) -> np.ndarray:
     method : str or method object
         "E", "AB<s>", "RK<s>", "T", ... (any fixed rule).
     h : float
-        Sampling period (s).
+        Sampling period (s); on a non-uniform grid the largest step.
     lipschitz : array_like, shape (2, 2)
         ``[[L_eta_eta, L_eta_v], [L_v_eta, L_v_v]]``, non-negative (Jacobian maxima).
+    ratio : float
+        Largest ratio of the longest to the shortest step in one prediction's stencil
+        (1 on a uniform grid; :func:`sampledyn.methods.stencil_steps`).
 
     Returns
     -------
     ndarray, shape (2, 2): ``||P(x~) - P(x)||_b <= (G @ (||delta_eta||, ||delta_v||))_b``.
     All entries inf for Tustin when the spectral radius of ``h L / 2`` is >= 1.
+
+    Raises
+    ------
+    ValueError
+        for an estimated rule (no bound), or a rule of order above
+        :data:`sampledyn.methods.MAX_GAIN_ORDER` with ``ratio`` > 1.
     """
-    return supported_method(method).noise_gain(h, lipschitz)
+    return supported_method(method).noise_gain(h, lipschitz, ratio)
