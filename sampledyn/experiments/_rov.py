@@ -40,8 +40,16 @@ __all__ = [
 
 #: The built-in Fig. 7 study (a sweep file).
 FIG7_STUDY_FILE = Path(__file__).parent / "studies" / "fig7.toml"
-#: The norms the Fig. 7 study reports.
+#: The norms the Fig. 7 study reports (the paper's: Euclidean over the six eta (m and
+#: rad mixed) and over the six v components (m/s and rad/s mixed)).
 NORMS = ("l2_over_n", "rms")
+#: The same norms split by unit, for the figure: column prefix -> (units, block).
+SPLIT = {
+    "lin_pos": ("m,m/s", "eta"),  # positions (m)
+    "ang_pos": ("rad,rad/s", "eta"),  # Euler angles (rad)
+    "lin_vel": ("m,m/s", "v"),  # linear velocities (m/s)
+    "ang_vel": ("rad,rad/s", "v"),  # angular rates (rad/s)
+}
 _HOLD = "roll_pitch_hold"
 
 
@@ -157,13 +165,27 @@ class ROVStudy:
         return {**hold, **gains}
 
 
+def _columns(norm: str, norms: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(column, block) pairs a cell of ``norm`` fills."""
+    if norm in norms:
+        return [(f"pos_{norm}", "eta"), (f"vel_{norm}", "v")]
+    kind, _, rest = norm.partition("[")
+    units = rest.rstrip("]")
+    if kind not in norms:
+        return []
+    return [(f"{p}_{kind}", b) for p, (u, b) in SPLIT.items() if u == units]
+
+
 def fig7_rows(cells: list[dict[str, Any]], norms: tuple[str, ...] = NORMS) -> list[dict[str, Any]]:
     """One row per (h, noise pair, seed, method) from the engine's cells, with the
-    position and velocity norms ``pos_<norm>``, ``vel_<norm>`` (NaN where the cell
-    failed; its message is in ``error``)."""
+    position and velocity norms ``pos_<norm>``, ``vel_<norm>`` (the paper's: m and rad
+    mixed, m/s and rad/s mixed) and, where the study computed them, the same split by
+    unit (``lin_pos_``, ``ang_pos_``, ``lin_vel_``, ``ang_vel_<norm>``: m, rad, m/s,
+    rad/s); NaN where the cell failed (its message in ``error``)."""
     rows: dict[tuple[Any, ...], dict[str, Any]] = {}
     for c in cells:
-        if c["norm"] not in norms:
+        columns = _columns(c["norm"], norms)
+        if not columns:
             continue
         key = (c["h"], c["eta_pct"], c["v_pct"], c["seed"], c["method"])
         row = rows.setdefault(
@@ -172,11 +194,13 @@ def fig7_rows(cells: list[dict[str, Any]], norms: tuple[str, ...] = NORMS) -> li
              "method": c["method"]},
         )  # fmt: skip
         ok = c["status"] == "ok"
-        row[f"pos_{c['norm']}"] = float(c["err_eta"]) if ok else math.nan
-        row[f"vel_{c['norm']}"] = float(c["err_v"]) if ok else math.nan
+        for column, block in columns:
+            row[column] = float(c[f"err_{block}"]) if ok else math.nan
         if not ok:
             row["error"] = c.get("error") or "failed"
-    order = [f"{q}_{n}" for q in ("pos", "vel") for n in norms]
+    split = [f"{p}_{n}" for p in SPLIT for n in norms]
+    have = {k for r in rows.values() for k in r}
+    order = [f"{q}_{n}" for q in ("pos", "vel") for n in norms] + [k for k in split if k in have]
     return [
         {**{k: r[k] for k in ("h", "eta_pct", "v_pct", "seed", "method")},
          **{k: r.get(k, math.nan) for k in order},
@@ -250,7 +274,7 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for r in rows:
         groups.setdefault((r["h"], r["eta_pct"], r["v_pct"], r["method"]), []).append(r)
     out = []
-    keys = [k for k in rows[0] if k.startswith(("pos_", "vel_"))]
+    keys = [k for k in rows[0] if k.startswith(("pos_", "vel_", *(f"{p}_" for p in SPLIT)))]
     for (h, e, v, m), grp in groups.items():
         row: dict[str, Any] = {"h": h, "eta_pct": e, "v_pct": v, "method": m, "seeds": len(grp)}
         for k in keys:
