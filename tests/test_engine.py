@@ -16,16 +16,15 @@ import csv
 import importlib.util
 import math
 import os
-import signal
 import sqlite3
 import subprocess
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _sweep_helpers import kill_when_stored
 
 import sampledyn as sd
 from sampledyn.cli import main
@@ -97,14 +96,6 @@ def test_reproduce_fig7_and_the_sweep_file_agree_bit_for_bit(tmp_path, capsys):
     assert (tmp_path / "report" / "index.html").exists()
 
 
-def _count(db: Path) -> int:
-    try:
-        with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=5) as conn:
-            return int(conn.execute("SELECT COUNT(*) FROM cells").fetchone()[0])
-    except sqlite3.OperationalError:
-        return 0
-
-
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL is POSIX")
 def test_reproduce_fig7_store_resumes_after_sigkill(tmp_path, capsys):
     db = tmp_path / "fig7.db"
@@ -114,22 +105,7 @@ def test_reproduce_fig7_store_resumes_after_sigkill(tmp_path, capsys):
     cmd = [sys.executable, "-m", "sampledyn.cli", *args, "--out", str(tmp_path / "a")]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
-    deadline = time.monotonic() + 300
-    try:
-        while proc.poll() is None and time.monotonic() < deadline:
-            if db.exists() and _count(db) >= 20:
-                break
-            time.sleep(0.01)
-        if proc.poll() is not None:
-            out, err = proc.communicate()
-            pytest.fail(f"reproduce ended before it was killed (make it longer):\n{out}{err}")
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == -signal.SIGKILL
+    kill_when_stored(proc, db, 20)
     finished = _cells(db)
     assert 20 <= len(finished) < total, "the kill landed before or after the run"
     assert main([*args, "--out", str(tmp_path / "b")]) == 0

@@ -38,13 +38,14 @@ from ..sensitivity import (
     JacobianReport,
     check_tolerance,
     check_vehicle,
+    domain_maxima,
     error_curves,
+    exact_reference,
     first_order_gain,
     gentle_input,
     h_grid,
-    jacobian_pair,
     largest_h,
-    pitch_guard,
+    period_ratio,
     rank_key,
     state_blocks,
     supported_method,
@@ -393,14 +394,8 @@ def advise(
         n_int = max(1, round(T / h))
         base = exact_samples(model, signal, n_int * h, h0, x0)
     else:
-        if not isinstance(reference, Trajectory):
-            raise TypeError(f"`reference` must be a Trajectory, got {type(reference).__name__}.")
-        base = reference.clean if reference.clean is not None else reference
-        m_ratio = round(h / base.h)
-        if m_ratio < 1 or abs(m_ratio * base.h - h) > 1e-9 * h:
-            raise ValueError(
-                f"`h` = {h} s must be an integer multiple of the reference period {base.h} s."
-            )
+        base = exact_reference(reference)
+        m_ratio = period_ratio(h, base.h)
         h0 = base.h
         top = max(2.0, 4.0 * h) if h_max_search is None else h_max_search
         ks = sorted(
@@ -409,12 +404,7 @@ def advise(
     jac = None
     notes: list[str] = []
     if vehicle:
-        if domain is None:
-            domain = Domain.from_trajectory(base, model.n_max, signal)
-        elif not isinstance(domain, Domain):
-            raise TypeError(f"`domain` must be a sensitivity.Domain, got {type(domain).__name__}.")
-        pitch_guard(model, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=3)
-        jac, _ = jacobian_pair(model, domain, amp, samples)
+        domain, jac, _ = domain_maxima(model, base, signal, domain, amp, samples)
     else:
         notes.append(f"bound, h_max_g: {NO_BOUND}.")
     curves = _curves(

@@ -25,12 +25,13 @@ from ..sensitivity import (
     ErrorBound,
     assemble_bound,
     check_vehicle,
+    domain_maxima,
     gentle_input,
     jacobian_pair,
     path_prediction,
     pitch_guard,
+    reference_at,
     scaled_inertia,
-    subsample,
     supported_method,
     truncation_errors,
     truncation_estimate,
@@ -64,16 +65,7 @@ def reference_samples(
     if reference is None:
         signal = gentle_input(model) if signal is None else signal
         return exact_samples(model, signal, T, h, x0), signal
-    if not isinstance(reference, Trajectory):
-        raise TypeError(f"`reference` must be a Trajectory, got {type(reference).__name__}.")
-    clean = reference.clean if reference.clean is not None else reference
-    k = round(h / clean.h)
-    if k < 1 or abs(k * clean.h - h) > 1e-9 * h:
-        raise ValueError(
-            f"`h` = {h} s must be an integer multiple of the reference sampling period "
-            f"{clean.h} s; simulate the reference with a divisor of h."
-        )
-    return subsample(clean, int(k)), signal
+    return reference_at(reference, h), signal
 
 
 def measure_noisy(
@@ -239,9 +231,7 @@ def monte_carlo_check(
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
         raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
     clean, signal = reference_samples(model, h, signal, reference, T, x0)
-    if domain is None:
-        domain = Domain.from_trajectory(clean, model.n_max, signal)
-    pitch_guard(model, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=3)
+    domain, _, _ = domain_maxima(model, clean, signal, domain, np.zeros(model.nx), samples)
     ms = [supported_method(m, "methods") for m in methods]
     trunc = {m.name: truncation_errors(model, m, clean, signal) for m in ms}
     estimate = {m.name: truncation_estimate(model, m, clean) for m in ms}

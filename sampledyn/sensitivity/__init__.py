@@ -37,7 +37,11 @@ from ._bound import assemble_bound as assemble_bound
 from ._bound import block_error_norms as block_error_norms
 from ._bound import block_noise as block_noise
 from ._bound import disturbed_error_bound as disturbed_error_bound
+from ._bound import domain_maxima as domain_maxima
+from ._bound import exact_reference as exact_reference
 from ._bound import jacobian_pair as jacobian_pair
+from ._bound import period_ratio as period_ratio
+from ._bound import reference_at as reference_at
 from ._bound import state_blocks as state_blocks
 from ._bound import subsample as subsample
 from ._bound import truncation_errors as truncation_errors
@@ -94,8 +98,10 @@ __all__ = [
     "check_vehicle",
     "dJ_norm",
     "disturbed_error_bound",
+    "domain_maxima",
     "error_constant",
     "error_curves",
+    "exact_reference",
     "first_order_gain",
     "gentle_input",
     "h_grid",
@@ -106,11 +112,13 @@ __all__ = [
     "measured_errors",
     "noise_gain",
     "path_prediction",
+    "period_ratio",
     "pitch_guard",
     "pitch_input",
     "pitch_sensitivity",
     "rank_key",
     "raw_errors",
+    "reference_at",
     "scaled_inertia",
     "spectral_norm",
     "state_blocks",

@@ -51,6 +51,10 @@ __all__ = [
     "ErrorBound",
     "block_error_norms",
     "disturbed_error_bound",
+    "domain_maxima",
+    "exact_reference",
+    "period_ratio",
+    "reference_at",
     "state_blocks",
     "subsample",
     "truncation_errors",
@@ -179,7 +183,8 @@ def subsample(traj: Trajectory, k: int) -> Trajectory:
     )
 
 
-def _ratio(h: float, base: float, argument: str) -> int:
+def period_ratio(h: float, base: float, argument: str = "h") -> int:
+    """The integer k with h = k base (s), or a ValueError naming ``argument``."""
     k = round(h / base)
     if k < 1 or abs(k * base - h) > 1e-9 * h:
         raise ValueError(
@@ -187,6 +192,50 @@ def _ratio(h: float, base: float, argument: str) -> int:
             f"period {base} s; simulate the reference with a divisor of h."
         )
     return int(k)
+
+
+def exact_reference(reference: Any) -> Trajectory:
+    """The exact samples of ``reference`` (its ``clean`` samples if it is measured).
+
+    Raises
+    ------
+    TypeError
+        if it is not a Trajectory.
+    """
+    if not isinstance(reference, Trajectory):
+        raise TypeError(
+            f"`reference` must be a Trajectory of exact samples (sampledyn.simulate), got "
+            f"{type(reference).__name__}."
+        )
+    return reference.clean if reference.clean is not None else reference
+
+
+def reference_at(reference: Any, h: float) -> Trajectory:
+    """The exact samples of ``reference`` at period ``h`` (a multiple of its period)."""
+    clean = exact_reference(reference)
+    return subsample(clean, period_ratio(h, clean.h))
+
+
+def domain_maxima(
+    model: Any,
+    clean: Trajectory,
+    signal: Any,
+    domain: Domain | None,
+    amplitudes: np.ndarray,
+    samples: int,
+    *,
+    stacklevel: int = 4,
+) -> tuple[Domain, JacobianReport, JacobianReport]:
+    """The domain of the bound (default: the box of ``clean`` and its input), checked
+    against the pitch singularity, and the Jacobian maxima over it and over it widened
+    by the noise. ``stacklevel`` of the pitch warning as seen from here."""
+    if domain is None:
+        domain = Domain.from_trajectory(clean, model.n_max, signal)
+    elif not isinstance(domain, Domain):
+        raise TypeError(f"`domain` must be a sensitivity.Domain, got {type(domain).__name__}.")
+    pitch_guard(model, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=stacklevel)
+    jac, jac_plus = jacobian_pair(model, domain, amplitudes, samples)
+    return domain, jac, jac_plus
 
 
 def block_error_norms(errors: np.ndarray, state_units: Any = None) -> tuple[np.ndarray, np.ndarray]:
@@ -360,20 +409,9 @@ def disturbed_error_bound(
     m = supported_method(method)
     if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
         raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
-    if not isinstance(reference, Trajectory):
-        raise TypeError(
-            f"`reference` must be a Trajectory of exact samples (sampledyn.simulate), got "
-            f"{type(reference).__name__}."
-        )
     amplitudes = noise_amplitudes(model.state_units, eta_pct, v_pct)
-    clean = reference.clean if reference.clean is not None else reference
-    clean = subsample(clean, _ratio(h, clean.h, "h"))
-    if domain is None:
-        domain = Domain.from_trajectory(clean, model.n_max, signal)
-    elif not isinstance(domain, Domain):
-        raise TypeError(f"`domain` must be a sensitivity.Domain, got {type(domain).__name__}.")
-    pitch_guard(model, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=3)
-    jac, jac_plus = jacobian_pair(model, domain, amplitudes, samples)
+    clean = reference_at(reference, h)
+    _, jac, jac_plus = domain_maxima(model, clean, signal, domain, amplitudes, samples)
     trunc = truncation_errors(model, m, clean, signal)
     return assemble_bound(
         m,

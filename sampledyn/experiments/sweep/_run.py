@@ -349,7 +349,7 @@ class MemoryStore:
 
 
 def run_sweep(
-    config: SweepConfig | str | os.PathLike[str],
+    config: SweepConfig | Study | str | os.PathLike[str],
     store: ResultStore | MemoryStore | str | os.PathLike[str] | None,
     *,
     workers: int | None = None,
@@ -366,7 +366,7 @@ def run_sweep(
 
     Parameters
     ----------
-    config : SweepConfig or path of a sweep TOML file
+    config : SweepConfig, a planned Study, or path of a sweep TOML file
     store : ResultStore, path of the SQLite file (created when the run starts), or None
         Where the cells go; None keeps them in this process only (nothing to resume;
         see :func:`run_study`, which returns them).
@@ -421,9 +421,11 @@ def run_sweep(
         raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
     if not lease > 0:
         raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
-    cfg = config if isinstance(config, SweepConfig) else load_config(config)
     t_start = time.perf_counter()
-    study = plan_study(cfg)
+    if isinstance(config, Study):
+        study = config
+    else:
+        study = plan_study(config if isinstance(config, SweepConfig) else load_config(config))
     check_grid_size(study, max_cells)
     if scheduler is not None:
         backend, n_workers = f"dask:{scheduler}", 1
@@ -659,9 +661,9 @@ def run_study(
     afterwards (another run still computing it).
     """
     cfg = config if isinstance(config, SweepConfig) else load_config(config)
-    mem = MemoryStore() if store is None else None
-    summary = run_sweep(cfg, mem if mem is not None else store, **options)
     study = plan_study(cfg)
+    mem = MemoryStore() if store is None else None
+    summary = run_sweep(study, mem if mem is not None else store, **options)
     keys = [c.key for c in study.iter_cells()]
     if mem is not None:
         cells = mem.rows("cells", keys)
