@@ -56,7 +56,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import sampledyn as sd
-from sampledyn.experiments._rov import fig7_vehicle
+from sampledyn.experiments import fig7_vehicle
 from sampledyn.simulate import _input_at, switching
 
 H = 0.1

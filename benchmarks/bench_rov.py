@@ -11,7 +11,9 @@ Run:  python benchmarks/bench_rov.py [--T-scipy 500] [--skip-fig7]
    rtol 1e-13 on a sample of intervals, those where a velocity or an rpm changes sign
    included (component i scaled by max(1, max_n |x_i|)).
 2. One-step prediction throughput of AB1 and AB4 over the 50,000 samples.
-3. Wall time of the whole ``sampledyn reproduce fig7`` (10 seeds), in a fresh process.
+3. Wall time of the whole ``sampledyn reproduce fig7`` (its default: the RexROV open
+   loop, 10 seeds), in a fresh process; ``benchmarks/bench_fig7.py`` splits it into
+   phases (simulate, predict, norms, store, figure).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import sampledyn as sd
-from sampledyn.experiments._rov import fig7_vehicle
+from sampledyn.experiments import fig7_vehicle
 
 
 def best_of(fn, repeat):
@@ -139,7 +141,7 @@ def main() -> None:
             stdout=subprocess.DEVNULL,
         )
         print(
-            f"\nsampledyn reproduce fig7 (10 seeds), fresh process: "
+            f"\nsampledyn reproduce fig7 (RexROV, 10 seeds), fresh process: "
             f"{time.perf_counter() - t0:.1f} s wall"
         )
 

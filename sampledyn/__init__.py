@@ -29,17 +29,19 @@ _EXPORTS: dict[str, str | None] = {
     "Trajectory": "._trajectory",
     "Tustin": ".methods",
     "add_noise": ".noise",
-    "advise": ".sensitivity",
+    "advise": ".experiments",
     "available_methods": ".methods",
     "discretize": ".discretize",
     "error_norm": ".errors",
     "estimate": ".estimate",
     "estimate_and_predict": ".estimate",
+    "experiments": None,
     "get_method": ".methods",
     "local_errors": ".errors",
     "methods": None,
     "models": None,
     "predict": ".predict",
+    "report": None,
     "results": None,
     "sensitivity": None,
     "signals": None,
@@ -49,8 +51,10 @@ _EXPORTS: dict[str, str | None] = {
 __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
+    from . import experiments as experiments
     from . import methods as methods
     from . import models as models
+    from . import report as report
     from . import results as results
     from . import sensitivity as sensitivity
     from . import signals as signals
@@ -63,6 +67,7 @@ if TYPE_CHECKING:
     from .estimate import EstimationResult as EstimationResult
     from .estimate import estimate as estimate
     from .estimate import estimate_and_predict as estimate_and_predict
+    from .experiments import advise as advise
     from .methods import AdamsBashforth as AdamsBashforth
     from .methods import Euler as Euler
     from .methods import RungeKutta as RungeKutta
@@ -71,7 +76,6 @@ if TYPE_CHECKING:
     from .methods import get_method as get_method
     from .noise import add_noise as add_noise
     from .predict import predict as predict
-    from .sensitivity import advise as advise
     from .simulate import simulate as simulate
 
 

@@ -191,11 +191,11 @@ def test_reproduce_refuses_a_second_h_for_a_one_h_figure(tmp_path, capsys):
 
 
 def test_reproduce_refuses_options_that_do_not_apply(tmp_path, capsys):
-    args = ["reproduce", "fig2", "--vehicle", "nope", "--seeds", "5", "--open-loop"]
+    args = ["reproduce", "fig2", "--vehicle", "nope", "--seeds", "5", "--no-attitude-hold"]
     status, err = _fails([*args, "--out", str(tmp_path / "o")], capsys)
     assert status == EXIT_USAGE
     line = _one_line(err)
-    for flag in ("--vehicle", "--seeds", "--open-loop"):
+    for flag in ("--vehicle", "--seeds", "--no-attitude-hold"):
         assert flag in line
     status, err = _fails(["reproduce", "fig7", "--ratios", "1,2"], capsys)
     assert status == EXIT_USAGE and "--ratios" in _one_line(err)

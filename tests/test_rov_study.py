@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import sampledyn as sd
-from sampledyn.experiments._rov import ROVStudy, fig7_vehicle, motion_summary, run_rov_study
+from sampledyn.experiments import ROVStudy, fig7_vehicle, motion_summary, run_rov_study
 from sampledyn.noise import noise_amplitudes
 from sampledyn.report import fig7_table, norm_evidence, ratio_phrase
 from sampledyn.signals import FIG6_TABLE

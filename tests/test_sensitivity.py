@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sampledyn as sd
+from sampledyn.experiments import inertia_sensitivity, monte_carlo_check
 from sampledyn.noise import noise_amplitudes
 from sampledyn.sensitivity import (
     Domain,
@@ -27,10 +28,8 @@ from sampledyn.sensitivity import (
     error_constant,
     first_order_gain,
     gentle_input,
-    inertia_sensitivity,
     jacobian_bounds,
     jacobian_norms,
-    monte_carlo_check,
     noise_gain,
     path_prediction,
     pitch_input,
@@ -324,8 +323,9 @@ def test_largest_h_meets_the_tolerance_and_is_monotone(vehicle, advices):
         assert hg is not None and hg >= 0.02
         # independent check: a fresh run at h = hg, the bound over the same domain
         T = math.floor(30.0 / hg + 1e-9) * hg
+        fresh = sd.simulate(vehicle, sig, T=T, h=hg)
         b = disturbed_error_bound(
-            vehicle, name, hg, 2.0, 2.0, adv.domain, signal=sig, T=T, samples=SAMPLES
+            vehicle, name, hg, 2.0, 2.0, adv.domain, reference=fresh, signal=sig, samples=SAMPLES
         )
         assert max(b.total) <= 0.12 * (1 + 1e-9)
         hp = adv.row(name).h_max
@@ -344,17 +344,20 @@ def test_largest_h_meets_the_tolerance_and_is_monotone(vehicle, advices):
 
 
 def test_plot_crossing_writes_png(advices, tmp_path):
-    png = sd.sensitivity.plot_crossing(advices["tol"].curves, tmp_path / "c.png", h_mark=H)
+    png = sd.report.plot_crossing(advices["tol"].curves, tmp_path / "c.png", h_mark=H)
     assert png.exists() and png.stat().st_size > 10_000
 
 
-def test_bad_arguments_name_themselves(vehicle):
+def test_bad_arguments_name_themselves(vehicle, runs):
+    traj, _ = runs["gentle"]
     with pytest.raises(ValueError, match="v_max"):
         Domain(v_max=(0.1,) * 5, phi_max_deg=0.0, theta_max_deg=10.0)
     with pytest.raises(ValueError, match="method"):
-        disturbed_error_bound(vehicle, "ABe2", H, 1.0, 1.0)
+        disturbed_error_bound(vehicle, "ABe2", H, 1.0, 1.0, reference=traj)
     with pytest.raises(TypeError, match="model"):
-        disturbed_error_bound(sd.models.AUVLike(), "E", H, 1.0, 1.0)
+        disturbed_error_bound(sd.models.AUVLike(), "E", H, 1.0, 1.0, reference=traj)
+    with pytest.raises(TypeError, match="reference"):
+        disturbed_error_bound(vehicle, "E", H, 1.0, 1.0, reference=None)
     with pytest.raises(ValueError, match="rank_by"):
         sd.advise(vehicle, H, 1.0, 1.0, rank_by="both")
 

@@ -75,7 +75,7 @@ def test_cell_values_match_the_library_pipeline(tmp_path):
     cfg = load_config(write_sweep(tmp_path / "s.toml", h="[0.02]", methods='["AB2", "RK4"]'))
     study = plan_study(cfg)
     cell = next(c for c in study.cells if c.method == "RK4" and c.eta_pct == 2 and c.v_pct == 5)
-    sim = simulate_trajectory(study.setup, cell.traj_key, cell.h)
+    sim = simulate_trajectory(study.setup, study.sim_of(cell.traj_key))[cell.traj_key]
     [chunk] = [c for c in study.chunks([cell], 1)]
     [row] = compute_chunk(study.setup, sim, chunk).rows
     model, signal = study.setup.model, study.setup.signal
@@ -137,12 +137,31 @@ def test_failed_exact_samples_fail_their_cells_only(tmp_path, monkeypatch):
 
     monkeypatch.setattr(compute, "simulate", flaky)
     db = tmp_path / "r.db"
-    s = run_sweep(write_sweep(tmp_path / "s.toml"), db)
-    assert (s.computed, s.failed) == (56, 28)
+    # 0.025 s is no multiple of 0.01 s: simulated on its own; 0.02 s is taken from 0.01 s.
+    s = run_sweep(write_sweep(tmp_path / "s.toml", h="[0.01, 0.02, 0.025]"), db)
+    assert (s.computed, s.failed) == (84, 56)
     df = sd.results.load(db)
     bad = df[df["status"] == "error"]
-    assert set(bad["h"]) == {0.01} and bad["error"].str.contains("underflow").all()
-    assert (df.loc[df["h"] == 0.02, "status"] == "ok").all()
+    assert set(bad["h"]) == {0.01, 0.02} and bad["error"].str.contains("underflow").all()
+    assert (df.loc[df["h"] == 0.025, "status"] == "ok").all()
+
+
+def test_multiples_of_h_are_subsampled_from_one_simulation(tmp_path):
+    """h = 0.02 s is every second sample of the run at 0.01 s (one simulation), and
+    its cells equal those computed on that subsample by hand."""
+    cfg = load_config(write_sweep(tmp_path / "s.toml", h="[0.02, 0.01]", methods='["AB2"]'))
+    study = plan_study(cfg)
+    assert len(study.trajectories) == 2 and len(study.sims) == 1
+    [sim] = study.sims.values()
+    assert sim.h == 0.01 and [(h, k) for _key, h, k in sim.members] == [(0.01, 1), (0.02, 2)]
+    bundle = simulate_trajectory(study.setup, sim)
+    fine = sd.simulate(study.setup.model, study.setup.signal, T=cfg.T, h=0.01, x0=cfg.x0)
+    coarse = bundle[sim.members[1][0]].traj
+    np.testing.assert_array_equal(coarse.x, fine.x[::2])
+    assert coarse.h == pytest.approx(0.02)
+    assert bundle[sim.members[1][0]].meta["certificate"] == pytest.approx(
+        fine.subsample(2).certificate.max_error, rel=1e-12
+    )
 
 
 def test_fig6_rov_cells_run_with_short_T(tmp_path):

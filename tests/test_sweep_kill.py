@@ -3,15 +3,12 @@ recomputed, nothing is corrupted, and the result equals an uninterrupted run."""
 
 from __future__ import annotations
 
-import os
-import signal
 import sqlite3
 import subprocess
 import sys
-import time
 
 import pytest
-from _sweep_helpers import rows, write_sweep
+from _sweep_helpers import kill_when_stored, rows, write_sweep
 
 from sampledyn.experiments.sweep import load_config, plan_study, run_sweep
 
@@ -26,14 +23,6 @@ HEAVY = {
     "seeds": 3,
 }
 COLUMNS = "key, run_id, computed_at, err_eta, err_v, err_all, status"
-
-
-def _count(db) -> int:
-    try:
-        with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=5) as conn:
-            return int(conn.execute("SELECT COUNT(*) FROM cells").fetchone()[0])
-    except sqlite3.OperationalError:  # not created yet
-        return 0
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL is POSIX")
@@ -52,22 +41,7 @@ def test_sigkill_mid_sweep_then_rerun_resumes(tmp_path):
         "--no-progress",
     ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 120
-    try:
-        while proc.poll() is None and time.monotonic() < deadline:
-            if db.exists() and _count(db) >= 10:
-                break
-            time.sleep(0.01)
-        if proc.poll() is not None:
-            out, err = proc.communicate()
-            pytest.fail(f"the sweep ended before it was killed (make it longer):\n{out}{err}")
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == -signal.SIGKILL
+    kill_when_stored(proc, db, 10, timeout=120)
 
     with sqlite3.connect(db) as conn:
         assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"

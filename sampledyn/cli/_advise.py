@@ -7,17 +7,22 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from ._common import add_format, names, option, pair, print_json, writable_dir
+from ._common import add_format, names, option, pair, print_json, refuse, writable_dir
 
 __all__ = ["add_parser"]
 
 
 def _report(args: argparse.Namespace) -> int:
-    from ..sensitivity import sensitivity_report
-
+    if args.input is not None:
+        refuse("--report runs its own inputs (gentle and pitch, see docs/sensitivity.md); "
+               "drop --input.")  # fmt: skip
     out = writable_dir(args.report, "--report")
+    from ..report import sensitivity_report
+
     with option("--vehicle"):
-        numbers = sensitivity_report(out, vehicle=args.vehicle, T=args.T, seeds=args.seeds)
+        numbers = sensitivity_report(
+            out, vehicle=args.vehicle, T=args.T, seeds=args.seeds, workers=args.workers
+        )
     print(f"sensitivity report for {numbers['vehicle']} written to {out}:")
     for p in sorted(out.glob("sensitivity_*")):
         print(f"  {p}")
@@ -32,6 +37,31 @@ def _report(args: argparse.Namespace) -> int:
 
 def _crossings(advice: Any) -> dict[str, list[float | None]]:
     return {name: list(advice.curves.crossing(name)) for name in advice.curves.methods}
+
+
+def _input(text: str, model: Any) -> Any:
+    """The signal of ``--input``: a registered input name or an inline TOML table."""
+    import tomllib
+
+    from ..experiments.sweep import make_input
+    from ..models import ClosedLoop
+
+    text = text.strip()
+    if text.startswith("{"):
+        try:
+            spec = tomllib.loads(f"input = {text}")["input"]
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(
+                f"`--input`: {text!r} is not a TOML inline table ({exc}); e.g. "
+                "--input '{ name = \"multilevel\", hold = 0.5 }'."
+            ) from exc
+    else:
+        spec = {"name": text}
+    plant = model.plant if isinstance(model, ClosedLoop) else model
+    try:
+        return make_input(spec, plant)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"`--input` {text!r}: {exc}") from exc
 
 
 def _json(advice: Any, args: argparse.Namespace, png: Path) -> dict[str, Any]:
@@ -57,11 +87,12 @@ def _run(args: argparse.Namespace) -> int:
         return _report(args)
     out = writable_dir(args.out or "out/advise", "--out")
 
+    from ..experiments import DEFAULT_METHODS, advise
     from ..models import load_vehicle
-    from ..sensitivity import DEFAULT_METHODS, advise, plot_crossing
 
     with option("--vehicle"):
         vehicle = load_vehicle(args.vehicle)
+    signal = None if args.input is None else _input(args.input, vehicle)
     eta_pct, v_pct = args.noise
     advice = advise(
         vehicle,
@@ -71,19 +102,24 @@ def _run(args: argparse.Namespace) -> int:
         methods=names(args.methods) or DEFAULT_METHODS,
         tolerance=args.tolerance,
         validate=not args.no_validate,
+        signal=signal,
         T=args.T,
         seeds=args.seeds,
         base_seed=args.seed,
         rank_by=args.rank_by,
+        workers=args.workers,
     )
+    from ..report import plot_crossing
+
     png = plot_crossing(advice.curves, out / "crossing.png", h_mark=args.h)
     if args.format == "json":
         print_json(_json(advice, args, png))
         return 0
     print(advice.table())
-    print()
-    print("Jacobian maxima over the domain (eqs. (19)-(23)):")
-    print(advice.jacobians.table())
+    if advice.jacobians is not None:
+        print()
+        print("Jacobian maxima over the domain (eqs. (19)-(23)):")
+        print(advice.jacobians.table())
     crossings = [
         f"{name} ({', '.join('-' if x is None else f'{x:.3g} s' for x in c)})"
         for name, c in _crossings(advice).items()
@@ -101,14 +137,26 @@ def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:
         help="rank sampled-data models for a vehicle, h and noise level (section 5 and beyond)",
         description=(
             "Rank E, AB_s, RK_s and T by their predicted largest one-step error on noisy "
-            "samples of a reference run (a gentle version of the Fig. 6 input), beside the "
-            "guaranteed bound (24)-(25) and the measured Monte Carlo errors; with "
+            "samples of a reference run (default input: a gentle version of the Fig. 6 "
+            "input; --input to choose), beside the guaranteed bound (24)-(25) and the "
+            "measured Monte Carlo errors (computed on the experiment engine); with "
             "--tolerance, the largest h that keeps each rule's error under it. Writes a "
             "figure of truncation vs noise term against h to --out. --report DIR instead "
             "writes the figures and numbers of docs/sensitivity.md (takes minutes)."
         ),
     )
     p.add_argument("--vehicle", default="bluerov2_heavy", help="built-in name or TOML file")
+    p.add_argument(
+        "--input",
+        default=None,
+        help="input of the reference run: a registered input name (gentle, fig6, pitch, "
+        "multilevel, sinusoidal) or an inline TOML table such as "
+        "'{ name = \"gentle\", scale = 0.3 }' (default: gentle, the Fig. 6 pattern at 20 %%, "
+        "for vehicles with 4 vertical and 4 horizontal thrusters)",
+    )
+    p.add_argument(
+        "--workers", type=int, default=None, help="local worker processes of the Monte Carlo"
+    )
     p.add_argument("--h", type=float, default=0.1, help="sampling period in s (default 0.1)")
     p.add_argument(
         "--noise",

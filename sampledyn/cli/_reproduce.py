@@ -8,9 +8,20 @@ figure does not report.
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path
 from typing import Any
 
-from ._common import floats, ints, names, option, progress, refuse, writable_dir
+from ._common import (
+    floats,
+    ints,
+    names,
+    option,
+    progress,
+    refuse,
+    writable_dir,
+    writable_file,
+)
 
 __all__ = ["add_parser"]
 
@@ -20,19 +31,27 @@ _PANELS = (
 )
 
 # Options each figure uses (argparse dests); any other one given is refused.
-_COMMON = {"figure", "out", "h", "T", "after", "seed", "methods", "norm", "no_progress"}
+_COMMON = {
+    "figure", "out", "h", "T", "after", "seed", "methods", "norm", "no_progress", "store",
+    "workers", "scheduler",
+}  # fmt: skip
+_ENGINE = {"store", "workers", "scheduler"}
 _USES = {
     "fig2": _COMMON | {"ratios"},
     "fig3": _COMMON | {"ratios"},
-    "fig7": _COMMON | {"seeds", "vehicle", "open_loop"},
-    "closed-loop": _COMMON | {"seeds", "vehicle"},
-    "multistep": _COMMON | {"seeds", "vehicle"},
+    "fig7": _COMMON | {"seeds", "vehicle", "attitude_hold"},
+    # The controller studies run their own loops (not on the engine): no store/workers.
+    "closed-loop": _COMMON - _ENGINE | {"seeds", "vehicle"},
+    "multistep": _COMMON - _ENGINE | {"seeds", "vehicle"},
 }
 _FLAGS = {
     "ratios": "--ratios",
     "seeds": "--seeds",
     "vehicle": "--vehicle",
-    "open_loop": "--open-loop",
+    "attitude_hold": "--attitude-hold/--no-attitude-hold",
+    "store": "--store",
+    "workers": "--workers",
+    "scheduler": "--scheduler",
 }
 
 
@@ -40,7 +59,7 @@ def _check_applies(args: argparse.Namespace) -> None:
     unused = [
         dest
         for dest in _FLAGS
-        if dest not in _USES[args.figure] and getattr(args, dest) not in (None, False)
+        if dest not in _USES[args.figure] and getattr(args, dest) is not None
     ]
     if unused:
         users = sorted({fig for fig, uses in _USES.items() for d in unused if d in uses})
@@ -56,6 +75,52 @@ def _check_methods(methods: tuple[str, ...]) -> None:
     with option("--methods"):
         for name in methods:
             get_method(name)
+
+
+def _engine(args: argparse.Namespace, default_workers: int | None) -> dict[str, Any]:
+    """The engine options of a reproduce run (store, workers, Dask), checked now."""
+    if args.workers is not None and args.scheduler is not None:
+        refuse("give --workers or --scheduler, not both.")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"`--workers` must be >= 1, got {args.workers}.")
+    out: dict[str, Any] = {"store": args.store}
+    if args.scheduler is not None:
+        out["scheduler"] = args.scheduler
+    else:
+        out["workers"] = default_workers if args.workers is None else args.workers
+    if args.store is not None:
+        from ..experiments.sweep import inspect_store
+
+        with option("--store"):
+            writable_file(args.store, "--store")
+            inspect_store(Path(args.store))  # refuses a foreign file, untouched
+        args.on_interrupt = (
+            f"the finished cells are in {args.store}; rerun the same command to compute the rest"
+        )
+    return out
+
+
+def _ran(summary: Any, store: str | None) -> str:
+    """What the engine did, in one line."""
+    where = f" (store {store})" if store else ""
+    return (
+        f"{summary.planned} cells: {summary.computed} computed, {summary.skipped} found "
+        f"stored{where}, in {summary.wall_seconds:.1f} s ({summary.backend})"
+    )
+
+
+def _missing_notes(rows: list[dict[str, Any]]) -> list[str]:
+    """The reasons of the n/a entries of the tables, once each."""
+    reasons: dict[str, set[Any]] = {}
+    for r in rows:
+        for note in filter(None, str(r.get("notes", "")).split("; ")):
+            column, _, why = note.partition(": ")
+            reasons.setdefault(f"{column}: {why}", set()).add(r["hold_ratio"])
+    return [
+        f"n/a ({text.split(': ', 1)[0]}, h_u/h = {', '.join(map(str, sorted(ratios)))}): "
+        f"{text.split(': ', 1)[1]}"
+        for text, ratios in reasons.items()
+    ]
 
 
 def _auv_figure(args: argparse.Namespace) -> int:
@@ -83,11 +148,12 @@ def _auv_figure(args: argparse.Namespace) -> int:
             seed=0 if args.seed is None else args.seed,
         )
     out = writable_dir(args.out or f"out/{which}", "--out")
+    engine = _engine(args, None)
 
     from ..experiments import run_auv_study
     from ..report import format_grid, plot_error_vs_order, write_csv
 
-    rows = run_auv_study(study, progress=progress(args))
+    rows = run_auv_study(study, progress=progress(args), **engine)
     csv_path = write_csv(rows, out / f"{which}.csv")
     title = (
         f"AUV-like (9)-(10): h={study.h:g} s, T={study.T:g} s, errors t>={study.after:g} s, "
@@ -109,6 +175,8 @@ def _auv_figure(args: argparse.Namespace) -> int:
     for key, caption in _PANELS:
         print(f"\nrms over the samples {caption}:")
         print(format_grid(rows, "method", "hold_ratio", key, col_title="hu/h"))
+    for note in _missing_notes(rows):
+        print(note)
     print(f"wrote {csv_path} and {png}")
     return 0
 
@@ -119,52 +187,62 @@ def _fig7(args: argparse.Namespace) -> int:
     norm = args.norm or FIG7_NORMS[0]
     if norm not in FIG7_NORMS:
         refuse(f"reproduce fig7 reports the norms {', '.join(FIG7_NORMS)}, not `--norm {norm}`.")
-    kwargs: dict[str, Any] = {
-        "seeds": 10 if args.seeds is None else args.seeds,
-        "base_seed": 0 if args.seed is None else args.seed,
-    }
-    if args.h:
-        kwargs["h_values"] = args.h
-    if args.T is not None:
-        kwargs["T"] = args.T
-    if args.after is not None:
-        kwargs["after"] = args.after
+    for h in args.h or ():
+        if not h > 0:
+            raise ValueError(f"`--h` must be > 0 s, got {h:g}.")
     if args.methods:
-        kwargs["methods"] = names(args.methods)
-        _check_methods(kwargs["methods"])
+        _check_methods(names(args.methods))
     if args.vehicle:
         from ..models import load_vehicle
 
         with option("--vehicle"):
             load_vehicle(args.vehicle)
-        kwargs["vehicle"] = args.vehicle
-    if args.open_loop:
-        kwargs["attitude_hold"] = False
-    for h in args.h or ():
-        if not h > 0:
-            raise ValueError(f"`--h` must be > 0 s, got {h:g}.")
-    study = ROVStudy(**kwargs)
+    study = ROVStudy(
+        vehicle=args.vehicle,
+        T=args.T,
+        after=args.after,
+        h_values=args.h,
+        methods=names(args.methods) or None,
+        seeds=args.seeds,
+        base_seed=args.seed,
+        attitude_hold=args.attitude_hold,
+    )
+    with option("--vehicle"):
+        config = study.config()
     out = writable_dir(args.out or "out/fig7", "--out")
+    engine = _engine(args, 2)
 
     from ..experiments import run_rov_study, summarize_rov
     from ..report import fig7_table, norm_evidence, plot_fig7, write_csv
 
-    result = run_rov_study(study, progress=progress(args))
+    result = run_rov_study(config, progress=progress(args), **engine)
     summary = summarize_rov(result["rows"])
     write_csv(result["rows"], out / "fig7_runs.csv")
     csv_path = write_csv(summary, out / "fig7.csv")
+    loop = (
+        "open loop (the paper's input)"
+        if config.feedback is None
+        else f"closed by {config.feedback['law']} "
+        + ", ".join(f"{k} {v:g}" for k, v in config.feedback.items() if k != "law")
+    )
     title = (
-        f"{result['model'].name}, Fig. 6 input, +{study.buoyancy_pct:g} % buoyancy, "
-        f"T={study.T:g} s, errors t>={study.after:g} s, {study.seeds} seeds"
+        f"{result['model']}, Fig. 6 input, +{config.buoyancy_pct:g} % buoyancy, "
+        f"T={config.T:g} s, errors t>={config.after:g} s, {len(config.seeds)} seeds"
     )
     png = plot_fig7(summary, out / "fig7.png", norm=norm, title=title)
+    print(f"fig7: {config.vehicle}, {loop}; {_ran(result['summary'], args.store)}")
     for h, cert in result["certificates"].items():
-        mo = result["motion"][h]
+        mo = result["motion"].get(h, {})
         print(
             f"h = {h:g} s: exact samples certified to {cert:.1e} per interval; mean surge "
-            f"{mo['mean_surge_m_s']:.3f} m/s, depth change {mo['depth_change_m']:+.2f} m, "
-            f"max |pitch| {mo['max_abs_pitch_deg']:.1f} deg"
+            f"{mo.get('mean_surge_m_s', math.nan):.3f} m/s, depth change "
+            f"{mo.get('depth_change_m', math.nan):+.2f} m, max |pitch| "
+            f"{mo.get('max_abs_pitch_deg', math.nan):.1f} deg, max |roll| "
+            f"{mo.get('max_abs_roll_deg', math.nan):.1f} deg"
         )
+    failed = sorted({r["error"] for r in result["rows"] if r.get("error")})
+    for message in failed:
+        print(f"failed cells (n/a in the table): {message}")
     print(f"\nFig. 7, {norm} of the disturbed local errors, mean over seeds (ours) and paper:")
     print(fig7_table(summary, norm=norm))
     ev = norm_evidence(summary)
@@ -263,10 +341,13 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
             "ABj_s and the estimated ABe_s, s = 1..6) against s, one curve per h_u/h, on "
             "the AUV-like system (9)-(10). fig3: the "
             "same for the one-step rules (E, T, RK_s for s = 1..4, Ee). "
-            "fig7: the ROV study of section 6 on the BlueROV2 Heavy (T = 5000 s, errors "
-            "from 1000 s, h in {0.1, 0.5}, the 12 noise pairs, AB1-AB4 and RK4, Monte Carlo "
-            "over --seeds, with a roll-pitch hold unless --open-loop), printed in the "
-            "paper's layout next to its numbers. "
+            "fig7: the ROV study of section 6 (T = 5000 s, errors from 1000 s, h in "
+            "{0.1, 0.5}, the 12 noise pairs, AB1-AB4 and RK4, Monte Carlo over --seeds) on "
+            "the RexROV, open loop as in the paper (--vehicle to choose; the BlueROV2 Heavy "
+            "runs with a roll-pitch hold, see --attitude-hold), printed in the paper's "
+            "layout next to its numbers. "
+            "fig2, fig3 and fig7 run on the experiment engine: --store keeps the cells in a "
+            "results store, so a killed run resumes and `sampledyn report` renders it. "
             "closed-loop: the same discrete LQR (depth/heading/surge hold) designed on each "
             "rule's discrete-time model (ZOH, E, AB2, AB4, ABu4, RK4, T), h in {0.1, 0.5}, "
             "run on the exact RexROV and BlueROV2 Heavy with thruster saturation and noise; "
@@ -308,7 +389,7 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     )
     rep.add_argument(
         "--vehicle",
-        help="vehicle name or TOML file (fig7: default bluerov2_heavy; closed-loop: "
+        help="vehicle name or TOML file (fig7: default rexrov; closed-loop: "
         "comma-separated, default rexrov,bluerov2_heavy; multistep: default rexrov)",
     )
     rep.add_argument(
@@ -326,10 +407,28 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         "CSV has them all",
     )
     rep.add_argument(
-        "--open-loop",
-        action="store_true",
-        help="fig7 only: drive the thrusters with the Fig. 6 rpm only, no roll-pitch hold "
-        "(the BlueROV2 Heavy then pitches over)",
+        "--attitude-hold",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="fig7 only: close a roll-pitch PD loop on the vertical thrusters, or not "
+        "(--no-attitude-hold: the paper's open-loop input). Default: the vehicle's entry "
+        "in the study table (sampledyn/experiments/studies/fig7.toml): the BlueROV2 Heavy "
+        "with the hold (open loop it tumbles), every other vehicle open loop",
+    )
+    rep.add_argument(
+        "--store",
+        default=None,
+        help="results store (SQLite file): keep the cells there; rerunning after a kill "
+        "computes only the missing ones; `sampledyn report STORE` renders them",
+    )
+    rep.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local worker processes (fig7 default 2; fig2/3: in this process)",
+    )
+    rep.add_argument(
+        "--scheduler", default=None, help="address of a Dask scheduler, e.g. tcp://host:8786"
     )
     rep.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     rep.set_defaults(func=_run)

@@ -1,9 +1,10 @@
-"""The AUV-like case study of section 4 (Figs. 2 and 3).
+"""The AUV-like case study of section 4 (Figs. 2 and 3), a built-in study of the engine.
 
 For each input hold ratio h_u/h, exact samples of eqs. (9)-(10) are simulated under a
 random multilevel input (levels uniform in [-10, 10]); every method's one-step-ahead
 predictor is fed with those samples and its local errors are measured after the
-transient.
+transient, over all samples and over the samples away from input jumps (and from the
+velocity's zero crossings).
 """
 
 from __future__ import annotations
@@ -13,14 +14,22 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ERROR_NORMS, error_norm, error_norms, local_errors
+from ..errors import ERROR_NORMS
 from ..methods import families, get_method
 from ..models import AUVLike
-from ..predict import predict
-from ..signals import Multilevel
-from ..simulate import simulate
+from .sweep import SweepConfig, fastest_time_constant, run_study
 
-__all__ = ["AUVStudy", "fig2_methods", "fig3_methods", "run_auv_study"]
+__all__ = [
+    "AUVStudy",
+    "auv_config",
+    "fastest_time_constant",
+    "fig2_methods",
+    "fig3_methods",
+    "run_auv_study",
+]
+
+#: The masked norms of Figs. 2-3 and their columns in the rows.
+MASKED_NORMS = {"rms@away_from_jumps": "rms_away_from_jumps", "rms@smooth": "rms_smooth"}
 
 
 def _multistep(fam: Any) -> bool:
@@ -38,11 +47,6 @@ def fig3_methods() -> tuple[str, ...]:
     """Fig. 3's rules: every registered single rule (E, T, Ee, ...) and every one-step
     family of orders (RK_s), in registration order."""
     return tuple(n for fam in families() if not _multistep(fam) for n in fam.names())
-
-
-# Samples counted as "away from input jumps" have no jump in the last 7 samples, which
-# covers the history of AB6 plus the interval being predicted.
-SMOOTH_HISTORY = 7
 
 
 @dataclass(frozen=True)
@@ -89,52 +93,48 @@ class AUVStudy:
             raise ValueError(f"`after` = {self.after} s must be below T = {self.T} s.")
 
 
-def fastest_time_constant(model: Any, traj: Any) -> float:
-    """Smallest 1/|lambda| (s) over the eigenvalues of df/dx along a trajectory."""
-    jac = model.jacobian(traj.t, traj.x, traj.u)
-    lam = np.abs(np.linalg.eigvals(jac)).max()
-    return float(1.0 / lam) if lam > 0 else float("inf")
+def auv_config(study: AUVStudy) -> SweepConfig:
+    """The study as a grid of the engine: one multilevel input per h_u/h, no noise, the
+    norms of :data:`sampledyn.errors.ERROR_NORMS` and the two masked rms."""
+    inputs = tuple(
+        {"name": "multilevel", "low": study.low, "high": study.high,
+         "hold": ratio * study.h, "seed": study.seed}
+        for ratio in study.hold_ratios
+    )  # fmt: skip
+    return SweepConfig(
+        vehicle=str(getattr(study.model, "name", "auv_like")),
+        inputs=inputs,
+        T=study.T,
+        after=study.after,
+        h=(study.h,),
+        methods=tuple(study.methods),
+        noise=((0.0, 0.0),),
+        seeds=(0,),
+        norms=(*ERROR_NORMS, *MASKED_NORMS),
+        x0=tuple(study.x0),
+        summaries=("tau_min",),
+        model=study.model,
+    )
 
 
-def away_from_jumps(u: np.ndarray, history: int) -> np.ndarray:
-    """True at samples k whose prediction uses no input jump: u[k-history-1..k-1] constant.
+def run_auv_study(
+    study: AUVStudy = AUVStudy(),
+    *,
+    progress: bool = False,
+    store: Any = None,
+    workers: int | None = None,
+) -> list[dict[str, Any]]:
+    """Local-error norms of every method for every h_u/h.
 
     Parameters
     ----------
-    u : ndarray, shape (N, nu)
-    history : int
-        The longest history among the methods compared (s of the highest AB_s).
-    """
-    n = u.shape[0]
-    jump = np.zeros(n, dtype=bool)
-    jump[1:] = (np.diff(u, axis=0) != 0).any(axis=1)  # u[k] differs from u[k-1]
-    ok = np.zeros(n, dtype=bool)
-    # k is fine when no jump happens at k-history..k-1.
-    csum = np.concatenate([[0], np.cumsum(jump)])
-    k = np.arange(n)
-    lo = np.clip(k - history, 0, n)
-    ok[:] = (csum[k] - csum[lo]) == 0
-    ok[: history + 1] = False
-    return ok
-
-
-def away_from_kinks(x: np.ndarray, kink_states: tuple[int, ...], history: int) -> np.ndarray:
-    """True at samples k with no zero crossing of a kink state in samples k-history..k.
-
-    Where a state inside ``|.|`` (e.g. y in y|y|) crosses zero, f is not smooth and
-    every method of order > 2 drops to about order 2 there.
-    """
-    n = x.shape[0]
-    cross = np.zeros(n, dtype=bool)
-    for k in kink_states:
-        sign = np.sign(x[:, k])
-        cross[1:] |= sign[1:] != sign[:-1]
-    window = np.convolve(cross.astype(np.int64), np.ones(history + 1, dtype=np.int64))[:n]
-    return window == 0
-
-
-def run_auv_study(study: AUVStudy = AUVStudy(), *, progress: bool = False) -> list[dict[str, Any]]:
-    """Local-error norms of every method for every h_u/h.
+    study : AUVStudy
+    progress : bool
+        Show a progress bar.
+    store : path, optional
+        Results store (resumable); default: in this process.
+    workers : int, optional
+        Local worker processes (default: in this process).
 
     Returns
     -------
@@ -144,55 +144,41 @@ def run_auv_study(study: AUVStudy = AUVStudy(), *, progress: bool = False) -> li
     history holds no input jump; NaN when h_u/h is too short to have any),
     ``rms_smooth`` (same, also away from zero crossings of the model's kink states), ``h``,
     ``T``, ``after``, ``seed``, ``certificate`` (max scaled
-    per-interval flow error of the samples) and ``tau_min`` (fastest local time
-    constant, s).
+    per-interval flow error of the samples), ``tau_min`` (fastest local time
+    constant, s) and ``notes`` (why a norm is NaN, "" otherwise).
     """
-    rows: list[dict[str, Any]] = []
-    cells = [(r, m) for r in study.hold_ratios for m in study.methods]
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(cells), desc="AUV study", unit="cell")
-    try:
-        for ratio in study.hold_ratios:
-            signal = Multilevel(study.low, study.high, hold=ratio * study.h, seed=study.seed)
-            traj = simulate(study.model, signal, T=study.T, h=study.h, x0=np.array(study.x0))
-            tau = fastest_time_constant(study.model, traj)
-            cert = traj.certificate.max_error if traj.certificate else float("nan")
-            no_jump = away_from_jumps(traj.u, SMOOTH_HISTORY)
-            smooth = no_jump & away_from_kinks(
-                traj.x, getattr(study.model, "kink_states", ()), SMOOTH_HISTORY
-            )
-            late = traj.t >= study.after
-            for name in study.methods:
-                method = get_method(name)
-                x_hat = predict(method, study.model, traj, signal=signal)
-                err = local_errors(x_hat, traj)
-                row: dict[str, Any] = {
-                    "hold_ratio": int(ratio),
-                    "method": method.name,
-                    "order": int(method.order),
-                }
-                row.update(error_norms(err, traj.t, ERROR_NORMS, after=study.after))
-                for key, mask in (("rms_away_from_jumps", no_jump), ("rms_smooth", smooth)):
-                    row[key] = (
-                        error_norm(err, traj.t, kind="rms", after=study.after, where=mask)
-                        if mask[late].any()
-                        else float("nan")
-                    )
-                row.update(
-                    h=study.h,
-                    T=study.T,
-                    after=study.after,
-                    seed=study.seed,
-                    certificate=cert,
-                    tau_min=tau,
-                )
-                rows.append(row)
-                if bar is not None:
-                    bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
-    return rows
+    cfg = auv_config(study)
+    options: dict[str, Any] = {"progress": progress}
+    if workers is not None and workers > 1:
+        options["workers"] = workers
+    result = run_study(cfg, store, **options)
+    trajs = result.trajectories
+    rows: dict[tuple[str, str], dict[str, Any]] = {}
+    for c in result.cells:
+        tconf = result.study.trajectories[c["traj_key"]]
+        ratio = int(round(tconf["input"]["hold"] / study.h))
+        key = (c["traj_key"], c["method"])
+        if key not in rows:
+            method = get_method(c["method"])
+            rows[key] = {"hold_ratio": ratio, "method": method.name, "order": int(method.order)}
+        row = rows[key]
+        column = MASKED_NORMS.get(c["norm"], c["norm"])
+        ok = c["status"] == "ok"
+        row[column] = float(c["err_all"]) if ok else float("nan")
+        if not ok:
+            row.setdefault("_notes", []).append(f"{column}: {c['error']}")
+    out = []
+    for (traj_key, _m), row in rows.items():
+        t = trajs[traj_key]
+        notes = row.pop("_notes", [])
+        row.update(
+            h=study.h,
+            T=study.T,
+            after=study.after,
+            seed=study.seed,
+            certificate=float(t["certificate"]),
+            tau_min=float(t["summary"]["tau_min"]),
+            notes="; ".join(notes),
+        )
+        out.append(row)
+    return out

@@ -1,44 +1,72 @@
-"""The ROV case study of section 6 (Figs. 6-7) on a published vehicle.
+"""The ROV case study of section 6 (Figs. 6-7), a built-in study of the engine.
 
-Exact samples of the vehicle under the Fig. 6 thruster input are simulated once per
-sampling period h; for every noise pair (eta %, v %) and seed, uniform white noise is
-added, AB_s (and RK4) one-step predictors are fed with the noisy samples, and the
-disturbed local errors (section 5.1: measurement minus prediction) are measured on
-t >= after, separately for positions (eta) and rates (v).
+The study is the sweep file ``studies/fig7.toml`` (the same grid as
+``examples/sweep_fig7.toml``): exact samples of a vehicle under the Fig. 6 thruster
+input, simulated once at h = 0.1 s (h = 0.5 s takes every fifth sample); for every
+noise pair (eta %, v %) and seed, uniform white noise is added, the one-step
+predictors are fed with the noisy samples, and the disturbed local errors (section
+5.1: measurement minus prediction) are measured on t >= after, separately for
+positions/angles (eta) and rates (v). Which model and input each rule predicts with,
+open or closed loop, is the engine's rule (:func:`sampledyn.experiments.sweep.
+prediction_inputs`).
+
+By default the RexROV runs open loop, as the paper ran its vehicle; the study file's
+``per_vehicle`` table says what each vehicle uses (the BlueROV2 Heavy, which tumbles
+under the Fig. 6 input, gets a roll-pitch hold).
 """
 
 from __future__ import annotations
 
 import math
-import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import error_norms, local_errors
-from ..methods import get_method
-from ..noise import add_noise
-from ..signals import fig6_thrusters
-from ..simulate import simulate
-from ._paper_fig7 import FIG7_NOISE_PAIRS
-from .sweep import worker_init
+from .sweep import SweepConfig, run_study
 
-__all__ = ["ROVStudy", "fig7_vehicle", "run_rov_study", "summarize"]
+__all__ = [
+    "FIG7_STUDY_FILE",
+    "NORMS",
+    "ROVStudy",
+    "fig7_rows",
+    "fig7_vehicle",
+    "run_rov_study",
+    "summarize",
+]
 
+#: The built-in Fig. 7 study (a sweep file).
+FIG7_STUDY_FILE = Path(__file__).parent / "studies" / "fig7.toml"
+#: The norms the Fig. 7 study reports (the paper's: Euclidean over the six eta (m and
+#: rad mixed) and over the six v components (m/s and rad/s mixed)).
 NORMS = ("l2_over_n", "rms")
+#: The same norms split by unit, for the figure: column prefix -> (units, block).
+SPLIT = {
+    "lin_pos": ("m,m/s", "eta"),  # positions (m)
+    "ang_pos": ("rad,rad/s", "eta"),  # Euler angles (rad)
+    "lin_vel": ("m,m/s", "v"),  # linear velocities (m/s)
+    "ang_vel": ("rad,rad/s", "v"),  # angular rates (rad/s)
+}
+_HOLD = "roll_pitch_hold"
+
+
+def fig7_vehicle(vehicle: Any, buoyancy_pct: float = 1.0) -> Any:
+    """The vehicle with its displaced volume set so that B = (1 + pct/100) W."""
+    return vehicle.with_buoyancy(buoyancy_pct)
 
 
 @dataclass(frozen=True)
 class ROVStudy:
-    """Settings of the Fig. 7 study (defaults: the paper's).
+    """Settings of the Fig. 7 study; None keeps the built-in study's value
+    (:data:`FIG7_STUDY_FILE`: the paper's settings on the RexROV).
 
     Attributes
     ----------
     vehicle : str
-        Built-in vehicle name or path of a vehicle file.
+        Built-in vehicle name or path of a vehicle file (default "rexrov").
     T, after : float
         Duration and start of the error window (s). Paper: 5000 and 1000.
     h_values : tuple of float
@@ -54,247 +82,189 @@ class ROVStudy:
     buoyancy_pct : float
         Positive buoyancy of the experiment in percent of the weight (paper: 1 %); the
         vehicle file keeps its published volume, the experiment scales it.
-    attitude_hold, kp, kd : bool, float, float
+    distribution : str
+        "uniform" (the paper's) or "gaussian".
+    attitude_hold : bool or None
         Close a roll-pitch PD loop on the vertical thrusters
-        (:class:`sampledyn.models.AttitudeHold`, gains in N m/rad and N m s/rad). Not in
-        the paper, whose input is open loop; without it the BlueROV2 Heavy pitches over
-        under the Fig. 6 input (see the README). The thrusters then turn at the Fig. 6
-        rpm plus the loop's correction, and the measured input is that applied rpm.
+        (:class:`sampledyn.models.AttitudeHold`) or not; None: what the study's
+        ``per_vehicle`` table says for the vehicle (the BlueROV2 Heavy: yes; every
+        other vehicle: no, as in the paper). With the hold the thrusters turn at the
+        Fig. 6 rpm plus the loop's correction, and the measured input is that applied
+        rpm.
+    kp, kd : float or None
+        Gains of the hold (N m/rad, N m s/rad); None: the table's, else 40 and 6.
     rtol : float
-        Tolerance of the exact samples (atol the same): 1e-11 keeps the certified
-        per-interval flow error near 5e-12, 20 times below the 1e-10 asked for.
+        Tolerance of the exact samples (atol the same).
     """
 
-    vehicle: str = "bluerov2_heavy"
-    T: float = 5000.0
-    after: float = 1000.0
-    h_values: tuple[float, ...] = (0.1, 0.5)
-    noise_pairs: tuple[tuple[float, float], ...] = FIG7_NOISE_PAIRS
-    methods: tuple[str, ...] = ("AB1", "AB2", "AB3", "AB4", "RK4")
-    seeds: int = 10
-    base_seed: int = 0
-    buoyancy_pct: float = 1.0
-    distribution: str = "uniform"
-    attitude_hold: bool = True
-    kp: float = 40.0
-    kd: float = 6.0
-    rtol: float = 1e-11
+    vehicle: str | None = None
+    T: float | None = None
+    after: float | None = None
+    h_values: tuple[float, ...] | None = None
+    noise_pairs: tuple[tuple[float, float], ...] | None = None
+    methods: tuple[str, ...] | None = None
+    seeds: int | None = None
+    base_seed: int | None = None
+    buoyancy_pct: float | None = None
+    distribution: str | None = None
+    attitude_hold: bool | None = None
+    kp: float | None = None
+    kd: float | None = None
+    rtol: float | None = None
 
-    def __post_init__(self) -> None:
-        if not self.after < self.T:
-            raise ValueError(f"`after` = {self.after} s must be below T = {self.T} s.")
-        if self.seeds < 1:
-            raise ValueError(f"`seeds` must be >= 1, got {self.seeds}.")
-        for name in self.methods:
-            get_method(name)
+    def config(self, base_dir: str | os.PathLike[str] | None = None) -> SweepConfig:
+        """The sweep grid of this study (relative vehicle paths resolve against
+        ``base_dir``, default the working directory).
 
+        Raises
+        ------
+        SweepConfigError
+            naming a bad setting (a ``ValueError``).
+        """
+        data: dict[str, Any] = tomllib.loads(FIG7_STUDY_FILE.read_text())
+        for key, value in (
+            ("vehicle", self.vehicle),
+            ("T", self.T),
+            ("after", self.after),
+            ("h", None if self.h_values is None else list(self.h_values)),
+            ("noise", None if self.noise_pairs is None else [list(p) for p in self.noise_pairs]),
+            ("methods", None if self.methods is None else list(self.methods)),
+            ("seeds", self.seeds),
+            ("base_seed", self.base_seed),
+            ("buoyancy_pct", self.buoyancy_pct),
+            ("distribution", self.distribution),
+            ("rtol", self.rtol),
+        ):
+            if value is not None:
+                data[key] = value
+        feedback = self._feedback(data)
+        if feedback is not None:
+            data["feedback"] = feedback
+        base = Path.cwd() if base_dir is None else Path(base_dir)
+        return SweepConfig.from_mapping(data, base_dir=base)
 
-def fig7_vehicle(vehicle: Any, buoyancy_pct: float = 1.0) -> Any:
-    """The vehicle with its displaced volume set so that B = (1 + pct/100) W."""
-    return vehicle.with_buoyancy(buoyancy_pct)
-
-
-def _cell_rows(
-    model: Any,
-    measured: Any,
-    methods: tuple[str, ...],
-    after: float,
-    *,
-    rk_model: Any = None,
-    rk_u: Any = None,
-    signal: Any = None,
-) -> list[dict[str, Any]]:
-    """Error norms of every method on one measured trajectory.
-
-    Rules that use f at the samples only (AB_s) predict with ``model`` and the
-    measured (applied) input, f evaluated once and shared. Rules that evaluate f
-    between samples (RK_s, T) predict with ``rk_model`` (default ``model``) fed with
-    the input samples ``rk_u`` (default the measured ones) and ``signal`` between
-    samples.
-    """
-    rows = []
-    cache: dict[Any, Any] = {}
-    n_eta = 6
-    for name in methods:
-        method = get_method(name)
-        if not method.intersample:
-            x_hat = method.predict(model, measured, cache=cache)
-        else:
-            data = measured if rk_u is None else measured.replace(u=rk_u)
-            x_hat = method.predict(rk_model or model, data, signal)
-        err = local_errors(x_hat, measured)
-        row: dict[str, Any] = {"method": method.name}
-        for q, comp in (("pos", slice(0, n_eta)), ("vel", slice(n_eta, 2 * n_eta))):
-            for kind, value in error_norms(err, measured.t, NORMS, after, comp).items():
-                row[f"{q}_{kind}"] = value
-        rows.append(row)
-    return rows
-
-
-# Data shared with forked worker processes (set before the pool starts).
-_SHARED: dict[str, Any] = {}
+    def _feedback(self, data: dict[str, Any]) -> Any:
+        """The ``feedback`` entry the switches ask for (None: the table decides)."""
+        vehicle = str(data["vehicle"])
+        table = data.get("per_vehicle", {})
+        entry = table.get(vehicle) or table.get(Path(vehicle).stem) or {}
+        listed = entry.get("feedback")
+        gains = {k: v for k, v in (("kp", self.kp), ("kd", self.kd)) if v is not None}
+        if self.attitude_hold is False:
+            if gains:
+                raise ValueError("`kp`/`kd` are gains of the attitude hold; it is switched off.")
+            return "none"
+        if self.attitude_hold is None and not gains:
+            return None
+        if self.attitude_hold is None and (listed is None or listed.get("law") != _HOLD):
+            raise ValueError(
+                f"`kp`/`kd` are gains of the attitude hold, which {vehicle!r} does not use by "
+                "default; switch it on (attitude_hold=True, --attitude-hold)."
+            )
+        hold = dict(listed) if listed is not None and listed.get("law") == _HOLD else {"law": _HOLD}
+        return {**hold, **gains}
 
 
-def _run_cells(task: tuple[int, tuple[float, float], tuple[int, ...]]) -> list[dict[str, Any]]:
-    """Rows of the cells (h index, noise pair, seeds); runs in a worker or in-process."""
-    hi, (eta_pct, v_pct), seeds = task
-    d = _SHARED
-    study: ROVStudy = d["study"]
-    traj = d["trajs"][hi]
-    rows = []
-    for k in seeds:
-        seq = np.random.SeedSequence([study.base_seed, k])
-        measured = add_noise(traj, eta_pct, v_pct, seq, distribution=study.distribution)
-        cell = _cell_rows(
-            d["model"],
-            measured,
-            study.methods,
-            study.after,
-            rk_model=d["sim_model"],
-            rk_u=d["u_ref"][hi],
-            signal=d["stage_signal"],
-        )
-        h = study.h_values[hi]
-        rows += [{"h": h, "eta_pct": eta_pct, "v_pct": v_pct, "seed": k, **r} for r in cell]
-    return rows
+def _columns(norm: str, norms: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(column, block) pairs a cell of ``norm`` fills."""
+    if norm in norms:
+        return [(f"pos_{norm}", "eta"), (f"vel_{norm}", "v")]
+    kind, _, rest = norm.partition("[")
+    units = rest.rstrip("]")
+    if kind not in norms:
+        return []
+    return [(f"{p}_{kind}", b) for p, (u, b) in SPLIT.items() if u == units]
 
 
-def _certify_task(_: Any = None) -> Any:
-    """The certified run (same samples, bit for bit, plus the certificate)."""
-    d = _SHARED
-    study = d["study"]
-    traj = simulate(
-        d["sim_model"], d["signal"], T=study.T, h=d["h_min"], rtol=study.rtol, atol=study.rtol
-    )
-    return traj.certificate
+def fig7_rows(cells: list[dict[str, Any]], norms: tuple[str, ...] = NORMS) -> list[dict[str, Any]]:
+    """One row per (h, noise pair, seed, method) from the engine's cells, with the
+    position and velocity norms ``pos_<norm>``, ``vel_<norm>`` (the paper's: m and rad
+    mixed, m/s and rad/s mixed) and, where the study computed them, the same split by
+    unit (``lin_pos_``, ``ang_pos_``, ``lin_vel_``, ``ang_vel_<norm>``: m, rad, m/s,
+    rad/s); NaN where the cell failed (its message in ``error``)."""
+    rows: dict[tuple[Any, ...], dict[str, Any]] = {}
+    for c in cells:
+        columns = _columns(c["norm"], norms)
+        if not columns:
+            continue
+        key = (c["h"], c["eta_pct"], c["v_pct"], c["seed"], c["method"])
+        row = rows.setdefault(
+            key,
+            {"h": c["h"], "eta_pct": c["eta_pct"], "v_pct": c["v_pct"], "seed": c["seed"],
+             "method": c["method"]},
+        )  # fmt: skip
+        ok = c["status"] == "ok"
+        for column, block in columns:
+            row[column] = float(c[f"err_{block}"]) if ok else math.nan
+        if not ok:
+            row["error"] = c.get("error") or "failed"
+    split = [f"{p}_{n}" for p in SPLIT for n in norms]
+    have = {k for r in rows.values() for k in r}
+    order = [f"{q}_{n}" for q in ("pos", "vel") for n in norms] + [k for k in split if k in have]
+    return [
+        {**{k: r[k] for k in ("h", "eta_pct", "v_pct", "seed", "method")},
+         **{k: r.get(k, math.nan) for k in order},
+         **({"error": r["error"]} if "error" in r else {})}
+        for r in rows.values()
+    ]  # fmt: skip
 
 
 def run_rov_study(
-    study: ROVStudy = ROVStudy(), *, progress: bool = False, workers: int = 2
+    study: ROVStudy | SweepConfig = ROVStudy(),
+    *,
+    store: str | os.PathLike[str] | None = None,
+    workers: int | None = 2,
+    scheduler: str | None = None,
+    progress: bool = False,
 ) -> dict[str, Any]:
-    """Run the Fig. 7 study.
+    """Run the Fig. 7 study on the engine.
 
-    The exact samples are simulated once at the smallest h (the Fig. 6 input is
-    continuous in time, so the samples at a multiple of it are a subsample). With
-    ``workers`` > 1 the cells run on forked worker processes, and the accuracy
-    certificate (a second, certified run of the same samples) is computed by one of
-    them meanwhile.
+    Parameters
+    ----------
+    study : ROVStudy or SweepConfig
+    store : path, optional
+        Results store: the cells are kept there, and a rerun (after a kill, say)
+        computes only the missing ones.
+    workers : int or None
+        Local worker processes (None or 1: in this process).
+    scheduler : str, optional
+        Address of a Dask scheduler instead of local workers.
+    progress : bool
+        Show a progress bar.
 
     Returns
     -------
     dict with ``rows`` (one dict per h, noise pair, seed and method, with the position
-    and velocity norms ``pos_l2_over_n``, ``pos_rms``, ``vel_l2_over_n``, ``vel_rms``),
-    ``certificates`` (h -> max scaled per-interval flow error of the exact samples),
-    ``motion`` (h -> a few statistics of the forced motion) and ``model``.
+    and velocity norms ``pos_l2_over_n``, ``pos_rms``, ``vel_l2_over_n``,
+    ``vel_rms``), ``certificates`` (h -> max scaled per-interval flow error of the
+    exact samples), ``motion`` (h -> statistics of the forced motion), ``model`` (its
+    label), ``config`` (the SweepConfig) and ``summary`` (what the run computed).
     """
-    from ..models import AttitudeHold, load_vehicle
-
-    if not isinstance(workers, int) or workers < 1:
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise ValueError(f"`workers` must be a positive int, got {workers!r}.")
-    model = fig7_vehicle(load_vehicle(study.vehicle), study.buoyancy_pct)
-    signal = fig6_thrusters(model)
-    sim_model = AttitudeHold(model, study.kp, study.kd) if study.attitude_hold else model
-    h_min = min(study.h_values)
-    ratios = [h / h_min for h in study.h_values]
-    if not all(abs(r - round(r)) < 1e-9 for r in ratios):
-        raise ValueError(f"every h must be a multiple of the smallest, got {study.h_values}.")
-    parallel = workers > 1 and "fork" in multiprocessing.get_all_start_methods()
-    shared = simulate(
-        sim_model,
-        signal,
-        T=study.T,
-        h=h_min,
-        certify=not parallel,
-        rtol=study.rtol,
-        atol=study.rtol,
-    )
-    trajs, u_ref, motion = [], [], {}
-    for h, ratio in zip(study.h_values, ratios, strict=True):
-        exact = shared.subsample(int(round(ratio)))
-        motion[h] = motion_summary(exact)
-        # What a log records: the rpm the thrusters actually turn at.
-        applied = sim_model.applied_rpm(exact.x, exact.u) if study.attitude_hold else exact.u
-        trajs.append(exact.replace(u=applied, input_names=model.input_names))
-        u_ref.append(exact.u)
-    _SHARED.update(
-        study=study, model=model, sim_model=sim_model, signal=signal, h_min=h_min,
-        trajs=trajs, u_ref=u_ref, stage_signal=_MemoSignal(signal),
-    )  # fmt: skip
-    # One task per (h, noise pair), split in two seed halves to balance the workers.
-    tasks = []
-    for hi in range(len(study.h_values)):
-        for pair in study.noise_pairs:
-            seeds = tuple(range(1 if pair == (0, 0) else study.seeds))
-            for part in (seeds[::2], seeds[1::2]):
-                if part:
-                    tasks.append((hi, pair, part))
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(tasks), desc="Fig. 7 cells", unit="task")
-    rows: list[dict[str, Any]] = []
-    cert = shared.certificate
-    try:
-        if parallel:
-            ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(
-                max_workers=workers,
-                mp_context=ctx,
-                initializer=worker_init,  # the workers die with this process
-                initargs=(os.getpid(),),
-            ) as pool:
-                cert_future = pool.submit(_certify_task)
-                for result in pool.map(_run_cells, tasks):
-                    rows += result
-                    if bar is not None:
-                        bar.update(1)
-                cert = cert_future.result()
-        else:
-            for task in tasks:
-                rows += _run_cells(task)
-                if bar is not None:
-                    bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
-        _SHARED.clear()
-    certificates = {}
-    for h, ratio in zip(study.h_values, ratios, strict=True):
-        sub = shared.replace(certificate=cert).subsample(int(round(ratio))).certificate
-        certificates[h] = sub.max_error if sub is not None else math.nan
-    return {"rows": rows, "certificates": certificates, "motion": motion, "model": sim_model}
-
-
-class _MemoSignal:
-    """A signal whose stage inputs are computed once per grid: every seed of a cell
-    asks for the same ``intersample(t, tau)``."""
-
-    def __init__(self, signal: Any) -> None:
-        self._signal = signal
-        self.nu = signal.nu
-        self._cache: dict[tuple[int, float, float, float], np.ndarray] = {}
-
-    def __call__(self, t: Any) -> np.ndarray:
-        return self._signal(t)
-
-    def intersample(self, t_start: np.ndarray, tau: float) -> np.ndarray:
-        key = (t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
-        if key not in self._cache:
-            self._cache[key] = self._signal.intersample(t_start, tau)
-        return self._cache[key]
-
-
-def motion_summary(traj: Any) -> dict[str, float]:
-    """Statistics of the forced motion: mean surge speed (m/s), depth change (m, NED z;
-    negative = ascent), largest |pitch| and |roll| (deg), distance travelled (m)."""
-    x = traj.x
+    cfg = study.config() if isinstance(study, ROVStudy) else study
+    options: dict[str, Any] = {"progress": progress}
+    if scheduler is not None:
+        options["scheduler"] = scheduler
+    elif workers is not None and workers > 1:
+        options["workers"] = workers
+    result = run_study(cfg, store, **options)
+    norms = tuple(n for n in cfg.norms if n in NORMS) or NORMS
+    certificates: dict[float, float] = {}
+    motion: dict[float, dict[str, float]] = {}
+    for t in sorted(result.trajectories.values(), key=lambda r: r["h"]):
+        h = float(t["h"])
+        cert = t.get("certificate")
+        certificates[h] = math.nan if cert is None else float(cert)
+        motion[h] = dict(t.get("summary") or {})
+    label = next(iter(result.study.trajectories.values()))["vehicle"]
     return {
-        "mean_surge_m_s": float(x[:, 6].mean()),
-        "depth_change_m": float(x[-1, 2] - x[0, 2]),
-        "max_abs_pitch_deg": float(np.degrees(np.abs(x[:, 4]).max())),
-        "max_abs_roll_deg": float(np.degrees(np.abs(x[:, 3]).max())),
-        "distance_m": float(np.linalg.norm(np.diff(x[:, :3], axis=0), axis=1).sum()),
+        "rows": fig7_rows(result.cells, norms),
+        "certificates": certificates,
+        "motion": motion,
+        "model": label,
+        "config": cfg,
+        "summary": result.summary,
     }
 
 
@@ -304,7 +274,7 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for r in rows:
         groups.setdefault((r["h"], r["eta_pct"], r["v_pct"], r["method"]), []).append(r)
     out = []
-    keys = [k for k in rows[0] if k.startswith(("pos_", "vel_"))]
+    keys = [k for k in rows[0] if k.startswith(("pos_", "vel_", *(f"{p}_" for p in SPLIT)))]
     for (h, e, v, m), grp in groups.items():
         row: dict[str, Any] = {"h": h, "eta_pct": e, "v_pct": v, "method": m, "seeds": len(grp)}
         for k in keys:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -9,6 +10,25 @@ from typing import Any
 from ..methods import get_method
 
 __all__ = ["plot_error_vs_order"]
+
+
+def _figure(rows: Sequence[dict[str, Any]], norms: Sequence[tuple[str, str]], title: str) -> Any:
+    from matplotlib import colormaps
+    from matplotlib.figure import Figure
+
+    ratios = sorted({r["hold_ratio"] for r in rows})
+    families: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        families.setdefault(get_method(r["method"]).family, []).append(r)
+    cmap = colormaps["viridis"]
+    fig = Figure(figsize=(5.2 * len(norms), 5.6), layout="constrained")
+    axes = fig.subplots(1, len(norms), sharey=True, squeeze=False)
+    for ax, (norm, caption) in zip(axes[0], norms, strict=True):
+        _panel(ax, rows, families, ratios, norm, caption, cmap)
+    axes[0][0].set_ylabel("local error, rms over both states (x in m, y in m/s)")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
 
 
 def plot_error_vs_order(
@@ -22,31 +42,13 @@ def plot_error_vs_order(
 
     The rules of one family (AB, ABu, ABe, RK, ...) present at more than one order are
     joined as one curve per h_u/h (dashed for estimated rules); a family present at
-    one order only (E, T, Ee in Fig. 3) is drawn as markers at that order.
+    one order only (E, T, Ee in Fig. 3) is drawn as markers at that order. A curve
+    without a finite value (a masked norm with no sample, e.g. no sample away from
+    input jumps at h_u/h = 1) is not drawn and not in the legend; the panel says so.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    ratios = sorted({r["hold_ratio"] for r in rows})
-    families: dict[str, list[dict[str, Any]]] = {}
-    for r in rows:
-        families.setdefault(get_method(r["method"]).family, []).append(r)
-    cmap = plt.get_cmap("viridis")
-    fig, axes = plt.subplots(
-        1, len(norms), figsize=(5.2 * len(norms), 4.8), sharey=True, squeeze=False
-    )
-    for ax, (norm, caption) in zip(axes[0], norms, strict=True):
-        _panel(ax, rows, families, ratios, norm, caption, cmap)
-    axes[0][0].set_ylabel("local error, rms over both states")
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _figure(rows, norms, title).savefig(path, dpi=110)
     return path
 
 
@@ -65,24 +67,44 @@ def _panel(
     curves = [f for f in families if f not in markers]
     # Solid curves carry the h_u/h labels; a second solid family gets another line style.
     solid = dict(zip([f for f in curves if f not in estimated], ("-", "-.", ":"), strict=False))
+    labelled: set[str] = set()
+    missing: list[int] = []
     for k, ratio in enumerate(ratios):
         color = cmap(k / max(1, len(ratios) - 1))
+        drawn = False
         for fam, frows in families.items():
-            pts = sorted((r["order"], r[norm]) for r in frows if r["hold_ratio"] == ratio)
+            pts = sorted(
+                (r["order"], r[norm])
+                for r in frows
+                if r["hold_ratio"] == ratio and math.isfinite(float(r[norm]))
+            )
             if not pts:
                 continue
+            drawn = True
             xs, ys = zip(*pts, strict=True)
             if fam in markers:
-                label = get_method(frows[0]["method"]).label if k == 0 else None
-                ax.plot(xs, ys, markers[fam], color=color, mfc="none", ms=8, label=label)
+                label = get_method(frows[0]["method"]).label
             elif fam in estimated:
-                ax.plot(xs, ys, "--", marker=".", color=color, label=fam if k == 0 else None)
+                label = f"{fam} (dashed; colour: $h_u/h$)"
             else:
                 label = f"{fam}, $h_u/h$={ratio}"
-                ax.plot(xs, ys, solid.get(fam, "-"), marker=".", color=color, label=label)
+            shown = label if label not in labelled else None
+            labelled.add(label)
+            if fam in markers:
+                ax.plot(xs, ys, markers[fam], color=color, mfc="none", ms=8, label=shown)
+            elif fam in estimated:
+                ax.plot(xs, ys, "--", marker=".", color=color, label=shown)
+            else:
+                ax.plot(xs, ys, solid.get(fam, "-"), marker=".", color=color, label=shown)
+        if not drawn:
+            missing.append(ratio)
     ax.set_yscale("log")
     ax.set_xlabel("order s")
-    ax.set_title(caption, fontsize=9)
+    title = caption
+    if missing:
+        title += f"\n(no such sample at $h_u/h$ = {', '.join(map(str, missing))})"
+    ax.set_title(title, fontsize=9)
     ax.set_xticks(sorted({r["order"] for r in rows}))
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=6, ncol=2)
+    if labelled:
+        ax.legend(fontsize=6, ncol=2)

@@ -14,9 +14,16 @@ import numpy as np
 
 from ..methods import get_method
 
-__all__ = ["ab_orders", "baseline", "plot_order", "plot_ratio_maps"]
+__all__ = [
+    "ab_orders",
+    "baseline",
+    "block_units",
+    "plot_order",
+    "plot_ratio_maps",
+    "sorted_pairs",
+]
 
-QUANTITIES = (("err_eta", "position/angle error (eta)"), ("err_v", "velocity error (v)"))
+QUANTITIES = (("err_eta", "position/angle error eta"), ("err_v", "rate error v"))
 
 
 def ab_orders(methods: Any) -> dict[int, str]:
@@ -42,22 +49,72 @@ def noise_label(eta: float, v: float) -> str:
     return f"({eta:g}%, {v:g}%)"
 
 
-def plot_order(means: Any, path: Path, title: str) -> Path:
-    """Error norm against the order s, one panel per h and quantity, one line per
-    noise pair (AB rules); other rules (RK_s, T, ...) as markers at their order."""
+def sorted_pairs(frame: Any) -> list[tuple[float, float]]:
+    """The noise pairs (eta %, v %) of a frame, sorted (by eta, then v)."""
+    return sorted(set(zip(frame["eta_pct"], frame["v_pct"], strict=True)))
+
+
+def block_units(norm: str) -> tuple[str, str]:
+    """The units of the eta and v numbers of a stored norm, e.g. ("m and rad", "m/s and
+    rad/s") for "rms", ("m", "m/s") for "rms[m,m/s]"."""
+    from ..experiments.sweep import parse_norm
+
+    try:
+        units = parse_norm(norm).units
+    except ValueError:
+        units = None
+    eta = [u for u in ("m", "rad") if units is None or u in units]
+    v = [u for u in ("m/s", "rad/s") if units is None or u in units]
+    return " and ".join(eta) or "-", " and ".join(v) or "-"
+
+
+# Margins in inches (fixed, not constrained layout, which costs seconds on figures
+# with many log axes): the figure title above the panel titles, the legend below the
+# x labels, room for the y labels.
+_TITLE_IN = 0.5
+_PANEL_TITLE_IN = 0.32
+_XLABEL_IN = 0.55
+_YLABEL_IN = 0.95
+
+
+def _grid(rows: int, cols: int, ax_w: float, ax_h: float, legend_in: float) -> tuple[Any, Any]:
     from matplotlib.figure import Figure
 
+    width = _YLABEL_IN + cols * ax_w + (cols - 1) * _YLABEL_IN + 0.25
+    height = (
+        _TITLE_IN
+        + _PANEL_TITLE_IN
+        + rows * ax_h
+        + (rows - 1) * (_XLABEL_IN + _PANEL_TITLE_IN)
+        + _XLABEL_IN
+        + legend_in
+    )
+    fig = Figure(figsize=(width, height))
+    fig.subplots_adjust(
+        left=_YLABEL_IN / width,
+        right=1 - 0.25 / width,
+        top=1 - (_TITLE_IN + _PANEL_TITLE_IN) / height,
+        bottom=(_XLABEL_IN + legend_in) / height,
+        hspace=(_XLABEL_IN + _PANEL_TITLE_IN) / ax_h,
+        wspace=_YLABEL_IN / ax_w,
+    )
+    return fig, fig.subplots(rows, cols, squeeze=False)
+
+
+def plot_order(means: Any, path: Path, title: str, norm: str = "norm") -> Path:
+    """Error norm against the order s, one panel per h and quantity, one line per
+    noise pair (AB rules, pairs sorted); other rules (RK_s, T, ...) as markers at their
+    order. ``norm`` (the stored norm, e.g. "rms[m,m/s]") labels the y axes with their
+    units."""
     hs = sorted(means["h"].unique())
-    pairs = list(dict.fromkeys(zip(means["eta_pct"], means["v_pct"], strict=True)))
+    pairs = sorted_pairs(means)
     orders = ab_orders(means["method"].unique())
     others = sorted(set(means["method"]) - set(orders.values()))
-    height = 3.0 * len(hs) + 1.4
-    fig = Figure(figsize=(10.0, height))
-    # Fixed margins: constrained layout costs seconds on figures with many log axes.
-    fig.subplots_adjust(
-        left=0.08, right=0.98, top=1 - 0.55 / height, bottom=1.15 / height, hspace=0.45, wspace=0.18
-    )
-    axes = fig.subplots(len(hs), 2, squeeze=False)
+    units = dict(zip(("err_eta", "err_v"), block_units(norm), strict=True))
+    n_labels = len(pairs) + len(others)
+    ncol = min(6, max(1, n_labels))
+    legend_in = 0.45 + 0.2 * -(-n_labels // ncol)
+    fig, axes = _grid(len(hs), 2, 3.9, 2.4, legend_in)
     colors = _palette(len(pairs))
     markers = "osD^v<>pPX*h"
     for i, h in enumerate(hs):
@@ -69,7 +126,7 @@ def plot_order(means: Any, path: Path, title: str) -> Path:
                 xs, ys = [], []
                 for s, name in orders.items():
                     row = pts[pts["method"] == name]
-                    if len(row):
+                    if len(row) and np.isfinite(float(row[q].iloc[0])):
                         xs.append(s)
                         ys.append(float(row[q].iloc[0]))
                 if xs:
@@ -87,22 +144,27 @@ def plot_order(means: Any, path: Path, title: str) -> Path:
                             label=name if k == 0 else None,
                         )
             ax.set_yscale("log")
-            ax.set_title(f"h = {h:g} s: {qname}", fontsize=9)
-            ax.set_xlabel("order s")
+            ax.set_title(f"h = {h:g} s: {qname} ({units[q]})", fontsize=9)
+            ax.set_xlabel("order s", fontsize=8)
+            ax.set_ylabel(f"{norm}, mean over seeds\n({units[q]})", fontsize=8)
             ax.set_xticks(sorted({*orders, *(int(o) for o in sub["order"].dropna())}))
             ax.grid(True, alpha=0.3)
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    if handles:
+    labels: dict[str, Any] = {}
+    for ax in axes.ravel():
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            labels.setdefault(label, handle)
+    if labels:
         fig.legend(
-            handles,
-            labels,
+            list(labels.values()),
+            list(labels),
             loc="lower center",
-            ncol=min(6, len(labels)),
+            bbox_to_anchor=(0.5, 0.0),
+            ncol=ncol,
             fontsize=8,
             title="noise (eta %, v %); hollow markers: other rules",
             title_fontsize=8,
         )
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(title, fontsize=10, y=1 - 0.12 / fig.get_figheight(), va="top")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
     return path
@@ -115,7 +177,7 @@ def _palette(n: int) -> list[Any]:
     return [cmap(i / max(1, n - 1)) if n > 10 else cmap(i) for i in range(n)]
 
 
-def plot_ratio_maps(means: Any, path: Path, title: str) -> Path | None:
+def plot_ratio_maps(means: Any, path: Path, title: str, norm: str = "norm") -> Path | None:
     """Maps of AB_s / AB1 over (noise pair, h), one row per s >= 2, one column per
     quantity; blue where AB_s is better, red where AB1 is. None if the study has no
     AB1 (or E) and no higher AB order."""
@@ -125,23 +187,29 @@ def plot_ratio_maps(means: Any, path: Path, title: str) -> Path | None:
     orders = ab_orders(means["method"].unique())
     base = orders.get(1)
     highs = [s for s in orders if s >= 2]
+    units = dict(zip(("err_eta", "err_v"), block_units(norm), strict=True))
     if base is None or not highs:
         return None
     hs = sorted(means["h"].unique())
-    pairs = list(dict.fromkeys(zip(means["eta_pct"], means["v_pct"], strict=True)))
+    pairs = sorted_pairs(means)
     idx = {(r.h, r.eta_pct, r.v_pct, r.method): r for r in means.itertuples(index=False)}
-    height = 1.0 + len(highs) * (0.6 + 0.22 * len(pairs))
-    fig = Figure(figsize=(3.5 + 2.4 * len(hs), height))
+    ax_h = 0.22 * len(pairs) + 0.1
+    ax_w = 0.9 + 0.8 * len(hs)
+    left, gap, right = 1.2, 1.3, 1.1  # y tick labels (noise pairs); colour bar
+    width = left + 2 * ax_w + gap + right
+    height = _TITLE_IN + _PANEL_TITLE_IN + len(highs) * ax_h
+    height += (len(highs) - 1) * (_XLABEL_IN + _PANEL_TITLE_IN) + _XLABEL_IN
+    fig = Figure(figsize=(width, height))
     fig.subplots_adjust(
-        left=0.14,
-        right=0.86,
-        top=1 - 0.5 / height,
-        bottom=0.45 / height,
-        hspace=0.9 / (0.6 + 0.22 * len(pairs)),
-        wspace=0.45,
+        left=left / width,
+        right=1 - right / width,
+        top=1 - (_TITLE_IN + _PANEL_TITLE_IN) / height,
+        bottom=_XLABEL_IN / height,
+        hspace=(_XLABEL_IN + _PANEL_TITLE_IN) / ax_h,
+        wspace=gap / ax_w,
     )
     axes = fig.subplots(len(highs), 2, squeeze=False)
-    norm = TwoSlopeNorm(vcenter=0.0, vmin=-1.0, vmax=1.0)
+    scale = TwoSlopeNorm(vcenter=0.0, vmin=-1.0, vmax=1.0)
     image = None
     for i, s in enumerate(highs):
         for j, (q, qname) in enumerate(QUANTITIES):
@@ -154,7 +222,7 @@ def plot_ratio_maps(means: Any, path: Path, title: str) -> Path | None:
                         if num > 0 and den > 0:
                             grid[a, b] = np.log10(num / den)
             ax = axes[i][j]
-            image = ax.imshow(np.clip(grid, -1, 1), cmap="RdBu_r", norm=norm, aspect="auto")
+            image = ax.imshow(np.clip(grid, -1, 1), cmap="RdBu_r", norm=scale, aspect="auto")
             for a in range(len(pairs)):
                 for b in range(len(hs)):
                     if np.isfinite(grid[a, b]):
@@ -171,12 +239,12 @@ def plot_ratio_maps(means: Any, path: Path, title: str) -> Path | None:
             ax.set_xticks(range(len(hs)), [f"{h:g}" for h in hs], fontsize=8)
             ax.set_yticks(range(len(pairs)), [noise_label(e, v) for e, v in pairs], fontsize=7)
             ax.set_xlabel("h (s)", fontsize=8)
-            ax.set_title(f"{orders[s]} / {base}: {qname}", fontsize=9)
+            ax.set_title(f"{orders[s]} / {base}: {qname} ({units[q]})", fontsize=9)
     if image is not None:
-        cax = fig.add_axes((0.9, 0.2, 0.015, 0.6))
+        cax = fig.add_axes((1 - 0.85 / width, 0.2, 0.15 / width, 0.6))
         bar = fig.colorbar(image, cax=cax, label="log10 ratio (clipped at +-1)")
         bar.ax.tick_params(labelsize=7)
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(title, fontsize=10, y=1 - 0.12 / height, va="top")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
     return path

@@ -81,7 +81,7 @@ def _means(cells: Any) -> Any:
         err_v_std=("err_v", "std"),
         seeds=("seed", "count"),
     ).reset_index()
-    pairs = list(dict.fromkeys(zip(cells["eta_pct"], cells["v_pct"], strict=True)))
+    pairs = sorted(set(zip(cells["eta_pct"], cells["v_pct"], strict=True)))
     rank = {p: i for i, p in enumerate(pairs)}
     out["_pair"] = [rank[(e, v)] for e, v in zip(out["eta_pct"], out["v_pct"], strict=True)]
     return out.sort_values(["h", "_pair", "method"]).drop(columns="_pair")
@@ -188,7 +188,7 @@ def _study_blocks(
             blocks.append(("h", 3, "Fig. 7-style table"))
             blocks.append(fig7)
         blocks.append(("h", 3, "Error against order, per noise level"))
-        p = plot_order(means, fig_dir / f"study{i}_order.png", title)
+        p = plot_order(means, fig_dir / f"study{i}_order.png", title, str(key["norm"]))
         figs.append(p)
         blocks.append(
             (
@@ -198,7 +198,7 @@ def _study_blocks(
                 "against the order s (mean over seeds).",
             )
         )
-        p2 = plot_ratio_maps(means, fig_dir / f"study{i}_ratio.png", title)
+        p2 = plot_ratio_maps(means, fig_dir / f"study{i}_ratio.png", title, str(key["norm"]))
         if p2 is not None:
             figs.append(p2)
             blocks.append(("h", 3, "AB_s / AB1 ratio maps over (h, noise)"))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -31,16 +32,27 @@ def format_grid(
     fmt: str = "{:.2e}",
     row_title: str | None = None,
     col_title: str | None = None,
+    missing: str = "n/a",
 ) -> str:
-    """A text table with one row per ``row_key`` value and one column per ``col_key``."""
+    """A text table with one row per ``row_key`` value and one column per ``col_key``.
+
+    A NaN value prints as ``missing`` (the caller says why below the table); a
+    combination without a row as "-".
+    """
     row_vals = list(dict.fromkeys(r[row_key] for r in rows))
     col_vals = list(dict.fromkeys(r[col_key] for r in rows))
     cell = {(r[row_key], r[col_key]): r[value_key] for r in rows}
     head = [row_title or row_key] + [f"{col_title or col_key}={c}" for c in col_vals]
-    body = [
-        [str(rv)] + [fmt.format(cell[(rv, cv)]) if (rv, cv) in cell else "-" for cv in col_vals]
-        for rv in row_vals
-    ]
+
+    def text(key: tuple[Any, Any]) -> str:
+        if key not in cell:
+            return "-"
+        value = cell[key]
+        if isinstance(value, float) and math.isnan(value):
+            return missing
+        return fmt.format(value)
+
+    body = [[str(rv)] + [text((rv, cv)) for cv in col_vals] for rv in row_vals]
     widths = [max(len(line[i]) for line in [head, *body]) for i in range(len(head))]
     lines = [
         "  ".join(s.rjust(w) for s, w in zip(line, widths, strict=True)) for line in [head, *body]

@@ -42,10 +42,9 @@ import numpy as np
 
 from .._trajectory import Trajectory
 from ..methods import fixed_step, stencil_steps
-from ..noise import noise_amplitudes
+from ..noise import NOISE_REFERENCE, noise_amplitudes
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
-from ._inputs import gentle_input
 from ._jacobians import JacobianReport, _jacobian_bounds
 
 __all__ = [
@@ -53,13 +52,50 @@ __all__ = [
     "ErrorBound",
     "block_error_norms",
     "disturbed_error_bound",
-    "reference_run",
+    "domain_maxima",
+    "exact_reference",
+    "period_ratio",
+    "reference_at",
+    "state_blocks",
     "subsample",
     "truncation_errors",
 ]
 
+# The blocks of the 6-DoF vehicle of eqs. (5)-(7): eta then v.
 ETA = slice(0, 6)
 V = slice(6, 12)
+
+
+def state_blocks(state_units: Any, argument: str = "model") -> tuple[Any, Any]:
+    """The position/angle (eta: units m, rad) and rate (v: m/s, rad/s) components of a
+    state, as slices when contiguous (index arrays otherwise).
+
+    Raises
+    ------
+    ValueError
+        naming the first state whose unit is none of these, or a missing block.
+    """
+    units = tuple(state_units)
+    bad = [(i, u) for i, u in enumerate(units) if u not in NOISE_REFERENCE]
+    if bad:
+        i, u = bad[0]
+        raise ValueError(
+            f"`{argument}`: the sensitivity analysis splits the state into positions/angles "
+            f"(units m, rad) and rates (m/s, rad/s); state {i} has unit {u!r} (units: "
+            f"{', '.join(units)}). Give every state one of these units."
+        )
+    kind = np.array([NOISE_REFERENCE[u][0] for u in units])
+    out = []
+    for name, label in (("eta", "positions/angles (m, rad)"), ("v", "rates (m/s, rad/s)")):
+        idx = np.flatnonzero(kind == name)
+        if idx.size == 0:
+            raise ValueError(
+                f"`{argument}` has no {label} among its states (units: {', '.join(units)}); "
+                "the analysis needs both blocks."
+            )
+        contiguous = idx.size == 1 or bool((np.diff(idx) == 1).all())
+        out.append(slice(int(idx[0]), int(idx[-1]) + 1) if contiguous else idx)
+    return out[0], out[1]
 
 
 @dataclass(frozen=True)
@@ -148,7 +184,8 @@ def subsample(traj: Trajectory, k: int) -> Trajectory:
     )
 
 
-def _ratio(h: float, base: float, argument: str) -> int:
+def period_ratio(h: float, base: float, argument: str = "h") -> int:
+    """The integer k with h = k base (s), or a ValueError naming ``argument``."""
     k = round(h / base)
     if k < 1 or abs(k * base - h) > 1e-9 * h:
         raise ValueError(
@@ -158,38 +195,62 @@ def _ratio(h: float, base: float, argument: str) -> int:
     return int(k)
 
 
-def reference_run(
-    model: Any,
-    h: float,
-    signal: Any = None,
-    reference: Trajectory | None = None,
-    T: float = 60.0,
-    x0: Any = None,
-) -> tuple[Trajectory, Any]:
-    """Exact samples at sampling period ``h`` and the signal that made them.
+def exact_reference(reference: Any) -> Trajectory:
+    """The exact samples of ``reference`` (its ``clean`` samples if it is measured).
 
-    The reference given (clean samples, or measured ones whose ``clean`` is used) is
-    subsampled to h; otherwise the model is simulated for T seconds under ``signal``
-    (default :func:`gentle_input`).
+    Raises
+    ------
+    TypeError
+        if it is not a Trajectory.
     """
-    if reference is None:
-        from ..simulate import simulate
-
-        signal = gentle_input(model) if signal is None else signal
-        return simulate(model, signal, T=T, h=h, x0=x0), signal
     if not isinstance(reference, Trajectory):
-        raise TypeError(f"`reference` must be a Trajectory, got {type(reference).__name__}.")
-    clean = reference.clean if reference.clean is not None else reference
-    return subsample(clean, _ratio(h, clean.h, "h")), signal
+        raise TypeError(
+            f"`reference` must be a Trajectory of exact samples (sampledyn.simulate), got "
+            f"{type(reference).__name__}."
+        )
+    return reference.clean if reference.clean is not None else reference
 
 
-def block_error_norms(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-sample Euclidean norms over the eta and the v components, shapes (N,) each.
+def reference_at(reference: Any, h: float) -> Trajectory:
+    """The exact samples of ``reference`` at period ``h`` (a multiple of its period)."""
+    clean = exact_reference(reference)
+    return subsample(clean, period_ratio(h, clean.h))
+
+
+def domain_maxima(
+    model: Any,
+    clean: Trajectory,
+    signal: Any,
+    domain: Domain | None,
+    amplitudes: np.ndarray,
+    samples: int,
+    *,
+    stacklevel: int = 4,
+) -> tuple[Domain, JacobianReport, JacobianReport]:
+    """The domain of the bound (default: the box of ``clean`` and its input), checked
+    against the pitch singularity, and the Jacobian maxima over it and over it widened
+    by the noise. ``stacklevel`` of the pitch warning as seen from here."""
+    if domain is None:
+        domain = Domain.from_trajectory(clean, model.n_max, signal)
+    elif not isinstance(domain, Domain):
+        raise TypeError(f"`domain` must be a sensitivity.Domain, got {type(domain).__name__}.")
+    pitch_guard(model, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=stacklevel)
+    jac, jac_plus = jacobian_pair(model, domain, amplitudes, samples)
+    return domain, jac, jac_plus
+
+
+def block_error_norms(errors: np.ndarray, state_units: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample Euclidean norms over the eta and the v components, shapes (N,) each
+    (the blocks from ``state_units``, :func:`state_blocks`; default the vehicle's 6 + 6).
 
     NaN rows (no prediction) stay NaN.
     """
     e = np.asarray(errors, dtype=float)
-    return np.sqrt((e[:, ETA] ** 2).sum(axis=1)), np.sqrt((e[:, V] ** 2).sum(axis=1))
+    eta, v = (ETA, V) if state_units is None else state_blocks(state_units)
+    # The sum of squares as sampledyn.errors.error_norm forms it, so a bound built from
+    # these norms and an error measured by the engine compare to the last bit.
+    a, b = e[:, eta], e[:, v]
+    return np.sqrt(np.einsum("ij,ij->i", a, a)), np.sqrt(np.einsum("ij,ij->i", b, b))
 
 
 def _nanmax(a: np.ndarray) -> float:
@@ -206,17 +267,17 @@ def truncation_errors(
     on exact samples ``clean`` (state units)."""
     m = supported_method(method)
     x_hat = m.predict(model, clean, signal)
-    e_eta, e_v = block_error_norms(clean.x - x_hat)
+    e_eta, e_v = block_error_norms(clean.x - x_hat, clean.state_units)
     return _nanmax(e_eta), _nanmax(e_v)
 
 
-def _truncation_estimate(model: Any, m: Any, clean: Trajectory) -> tuple[float, float] | None:
+def truncation_estimate(model: Any, m: Any, clean: Trajectory) -> tuple[float, float] | None:
     """``C h max ||nabla^s f||`` per block, for the rules that extrapolate sampled f."""
     d = m.truncation_differences(model, clean)
     if d is None or d.shape[0] == 0 or m.error_constant is None:
         return None
     gamma = float(error_constant(m) or 0)
-    e_eta, e_v = block_error_norms(d)
+    e_eta, e_v = block_error_norms(d, clean.state_units)
     return gamma * clean.h * float(e_eta.max()), gamma * clean.h * float(e_v.max())
 
 
@@ -234,6 +295,13 @@ def jacobian_pair(
         _cached_jacobians(vehicle, domain, samples),
         _cached_jacobians(vehicle, widened, samples),
     )
+
+
+def block_noise(amplitudes: np.ndarray, state_units: Any = None) -> np.ndarray:
+    """``(||a_eta||, ||a_v||)``: the largest noise vector norms of the two blocks."""
+    eta, v = (ETA, V) if state_units is None else state_blocks(state_units)
+    a = np.asarray(amplitudes, dtype=float)
+    return np.array([np.linalg.norm(a[eta]), np.linalg.norm(a[v])])
 
 
 def _apply(g: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -261,7 +329,7 @@ def assemble_bound(
     ratio of a stencil (:func:`sampledyn.methods.stencil_steps`), which the rule's
     noise gain accounts for (or refuses with a message naming them)."""
     m = supported_method(method)
-    a = np.array([np.linalg.norm(amplitudes[ETA]), np.linalg.norm(amplitudes[V])])
+    a = block_noise(amplitudes)
     h_gain, ratio = (h, 1.0)
     if samples is not None and fixed_step(samples) is None:
         h_gain, ratio = stencil_steps(samples, m.history)
@@ -303,10 +371,8 @@ def disturbed_error_bound(
     v_pct: float,
     domain: Domain | None = None,
     *,
-    reference: Trajectory | None = None,
+    reference: Trajectory,
     signal: Any = None,
-    T: float = 60.0,
-    x0: Any = None,
     samples: int = 5000,
 ) -> ErrorBound:
     """Bound (24)-(25) on the disturbed local errors of ``method`` on noisy samples.
@@ -325,16 +391,11 @@ def disturbed_error_bound(
     domain : Domain, optional
         Box of the clean states for the Jacobian maxima; default: the smallest box
         holding the reference run (and its input).
-    reference : Trajectory, optional
-        Exact samples at h or at a divisor of h (the truncation term comes from
-        them). Default: ``T`` seconds of the model under ``signal``.
+    reference : Trajectory
+        Exact samples at h or at a divisor of h (the truncation term comes from them),
+        e.g. from :func:`sampledyn.simulate` (this function simulates nothing).
     signal : Signal, optional
-        The input (for Runge-Kutta stages between samples and for the default run).
-        Default :func:`gentle_input`.
-    T : float
-        Duration of the default reference run (s).
-    x0 : ndarray, shape (12,), optional
-        Initial state of the default reference run.
+        The input (for Runge-Kutta stages between samples, and the domain's rpm).
     samples : int
         Random samples for the Jacobian check (:func:`jacobian_bounds`).
 
@@ -346,7 +407,8 @@ def disturbed_error_bound(
     Raises
     ------
     ValueError
-        If the domain (or its widening by the pitch noise) reaches theta = 90 deg.
+        If the domain (or its widening by the pitch noise) reaches theta = 90 deg, or
+        h is not a multiple of the reference's period.
 
     Warns
     -----
@@ -358,13 +420,8 @@ def disturbed_error_bound(
     if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
         raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
     amplitudes = noise_amplitudes(model.state_units, eta_pct, v_pct)
-    clean, signal = reference_run(model, h, signal, reference, T, x0)
-    if domain is None:
-        domain = Domain.from_trajectory(clean, model.n_max, signal)
-    elif not isinstance(domain, Domain):
-        raise TypeError(f"`domain` must be a sensitivity.Domain, got {type(domain).__name__}.")
-    pitch_guard(model, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=3)
-    jac, jac_plus = jacobian_pair(model, domain, amplitudes, samples)
+    clean = reference_at(reference, h)
+    _, jac, jac_plus = domain_maxima(model, clean, signal, domain, amplitudes, samples)
     trunc = truncation_errors(model, m, clean, signal)
     return assemble_bound(
         m,
@@ -375,6 +432,6 @@ def disturbed_error_bound(
         jac,
         jac_plus,
         trunc,
-        _truncation_estimate(model, m, clean),
+        truncation_estimate(model, m, clean),
         samples=clean,
     )

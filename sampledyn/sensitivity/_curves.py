@@ -22,7 +22,9 @@ from ._domain import Domain
 from ._gains import supported_method
 from ._path import path_prediction
 
-__all__ = ["ErrorCurves", "error_curves", "h_grid"]
+__all__ = ["RANK_BY", "ErrorCurves", "error_curves", "h_grid", "largest_h", "rank_key"]
+
+RANK_BY = ("max", "eta", "v")
 
 
 @dataclass(frozen=True)
@@ -44,7 +46,9 @@ class ErrorCurves:
     predicted_noise, predicted : mapping method -> ndarray (K, 2)
         Noise part and total of the first-order path prediction (max over samples).
     bound_noise, bound : mapping method -> ndarray (K, 2)
-        Noise part and total of the domain bound (24)-(25).
+        Noise part and total of the domain bound (24)-(25); NaN where no bound was
+        computed (no domain: the Jacobian maxima (19)-(23) exist for the 6-DoF
+        vehicle only).
     """
 
     h: np.ndarray
@@ -90,6 +94,13 @@ def h_grid(h: float, h_min: float = 0.02, h_max: float | None = None) -> tuple[f
     return h0, sorted(k for k in ks if k >= 1)
 
 
+def usable_periods(methods: Sequence[Any], base: Trajectory, ks: Sequence[int]) -> list[int]:
+    """The multiples k of ``base.h`` that leave at least 3 predictions for every rule."""
+    ms = [supported_method(m, "methods") for m in methods]
+    need = max(m.history for m in ms) + 3
+    return [k for k in ks if (base.n_samples - 1) // k + 1 >= need]
+
+
 def error_curves(
     model: Any,
     methods: Sequence[Any],
@@ -97,20 +108,21 @@ def error_curves(
     ks: Sequence[int],
     eta_pct: float,
     v_pct: float,
-    domain: Domain,
+    domain: Domain | None,
     signal: Any = None,
     *,
     samples: int = 5000,
 ) -> ErrorCurves:
     """Curves of :class:`ErrorCurves` at the periods ``k base.h`` for k in ``ks``.
 
+    ``model`` is a vehicle, or any model whose states are positions/angles and rates
+    (:func:`state_blocks`); ``domain`` None computes no bound (its curves NaN).
     Periods that leave fewer than 3 predictions for some rule are dropped.
     """
     amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
-    report, report_plus = jacobian_pair(model, domain, amp, samples)
+    reports = None if domain is None else jacobian_pair(model, domain, amp, samples)
     ms = [supported_method(m, "methods") for m in methods]
-    need = max(m.history for m in ms) + 3
-    ks = [k for k in ks if (base.n_samples - 1) // k + 1 >= need]
+    ks = usable_periods(ms, base, ks)
     if not ks:
         raise ValueError("the reference run is too short for the requested periods.")
     keys = ("truncation", "predicted_noise", "predicted", "bound_noise", "bound")
@@ -122,12 +134,16 @@ def error_curves(
         cache: dict[Any, Any] = {}  # f and df/dx at these samples, shared by the rules
         for m in ms:
             p = path_prediction(model, m, clean, amp, signal, eta_pct, v_pct, cache=cache)
-            b = assemble_bound(
-                m, clean.h, eta_pct, v_pct, amp, report, report_plus, p.truncation, samples=clean
-            )
             store["truncation"][m.name][row] = p.truncation
             store["predicted_noise"][m.name][row] = p.noise
             store["predicted"][m.name][row] = (p.eta, p.v)
+            if reports is None:
+                store["bound_noise"][m.name][row] = math.nan
+                store["bound"][m.name][row] = math.nan
+                continue
+            b = assemble_bound(
+                m, clean.h, eta_pct, v_pct, amp, *reports, p.truncation, samples=clean
+            )
             store["bound_noise"][m.name][row] = (b.eta.noise, b.v.noise)
             store["bound"][m.name][row] = b.total
     return ErrorCurves(
@@ -137,3 +153,77 @@ def error_curves(
         methods=tuple(m.name for m in ms),
         **store,
     )
+
+
+def rank_key(eta: float, v: float, rank_by: str) -> float:
+    """The number a rule is ranked by: the larger block error ("max") or one block."""
+    if rank_by == "eta":
+        return eta
+    if rank_by == "v":
+        return v
+    return max(eta, v)
+
+
+def _meets(values: np.ndarray, tol: tuple[float, float], rank_by: str) -> np.ndarray:
+    ok_eta = values[:, 0] <= tol[0]
+    ok_v = values[:, 1] <= tol[1]
+    if rank_by == "eta":
+        return ok_eta
+    if rank_by == "v":
+        return ok_v
+    return ok_eta & ok_v
+
+
+def check_tolerance(tolerance: Any) -> tuple[float, float]:
+    """``tolerance`` as (eta, v); one number is both.
+
+    Raises
+    ------
+    ValueError
+        for anything but one or two positive finite numbers.
+    """
+    t = np.atleast_1d(np.asarray(tolerance, dtype=float))
+    if t.size == 1:
+        t = np.repeat(t, 2)
+    if t.shape != (2,) or not np.isfinite(t).all() or (t <= 0).any():
+        raise ValueError(
+            f"`tolerance` must be a positive number or a pair (eta, v), got {tolerance!r}."
+        )
+    return float(t[0]), float(t[1])
+
+
+def largest_h(
+    curves: ErrorCurves,
+    method: str,
+    tolerance: float | tuple[float, float],
+    *,
+    rank_by: str = "max",
+    which: str = "predicted",
+) -> float | None:
+    """Largest h of the curves' grid such that the error at every grid h' <= h meets
+    the tolerance (so the answer never grows when the tolerance shrinks).
+
+    Parameters
+    ----------
+    curves : ErrorCurves
+    method : str
+    tolerance : float or (float, float)
+        On the eta and v errors (one number: both).
+    rank_by : {"max", "eta", "v"}
+        Which blocks must meet it: both, or one.
+    which : {"predicted", "bound"}
+
+    Returns
+    -------
+    float (s), or None when even the smallest h fails (or no bound was computed).
+    """
+    tol = check_tolerance(tolerance)
+    if which not in ("predicted", "bound"):
+        raise ValueError(f"`which` must be 'predicted' or 'bound', got {which!r}.")
+    values = (curves.predicted if which == "predicted" else curves.bound)[method]
+    ok = _meets(values, tol, rank_by)
+    if not ok[0]:
+        return None
+    first_bad = np.flatnonzero(~ok)
+    last = int(first_bad[0]) - 1 if first_bad.size else ok.size - 1
+    return float(curves.h[last])

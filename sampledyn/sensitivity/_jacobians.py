@@ -54,6 +54,7 @@ __all__ = [
     "BLOCKS",
     "BlockMaximum",
     "JacobianReport",
+    "attitude_jacobian",
     "dJ_norm",
     "J_norm",
     "jacobian_bounds",
@@ -78,8 +79,9 @@ def spectral_norm(a: Any) -> np.ndarray:
     return np.sqrt(np.clip(np.linalg.eigvalsh(gram)[..., -1], 0.0, None))
 
 
-def _jac(vehicle: Any, phi: Any, theta: Any, v: Any, n: Any) -> np.ndarray:
-    """Full Jacobian at eta = (0, 0, 0, phi, theta, 0), body rates v and rpm n.
+def attitude_jacobian(vehicle: Any, phi: Any, theta: Any, v: Any, n: Any) -> np.ndarray:
+    """Full Jacobian df/dx, shape (N, 12, 12), at eta = (0, 0, 0, phi, theta, 0) (rad),
+    body rates v and rpm n.
 
     Shapes broadcast to (N,); ``v`` (N, 6), ``n`` (N, n_thr). The vehicle's own pitch
     warning is silenced here: the public functions check the pitch once themselves.
@@ -95,6 +97,9 @@ def _jac(vehicle: Any, phi: Any, theta: Any, v: Any, n: Any) -> np.ndarray:
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*pitch")
         return np.asarray(vehicle.jacobian(np.zeros(size), x, u))
+
+
+_jac = attitude_jacobian
 
 
 def jacobian_norms(vehicle: Any, x: Any, u: Any) -> dict[str, np.ndarray]:

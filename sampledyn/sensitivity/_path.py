@@ -28,13 +28,11 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ._bound import ETA, V, block_error_norms
+from ._bound import block_error_norms, block_noise, state_blocks
 from ._gains import supported_method
 from ._jacobians import spectral_norm
 
 __all__ = ["PathPrediction", "path_prediction"]
-
-_BLOCKS = ((ETA, ETA), (ETA, V), (V, ETA), (V, V))
 
 
 @dataclass(frozen=True)
@@ -63,11 +61,12 @@ class PathPrediction:
     noise: tuple[float, float]
 
 
-def _block_norms(phi: np.ndarray) -> np.ndarray:
-    """Spectral norms of the 2 x 2 blocks, shape (N, 2, 2) from (N, 12, 12)."""
+def _block_norms(phi: np.ndarray, eta: Any, v: Any) -> np.ndarray:
+    """Spectral norms of the 2 x 2 blocks, shape (N, 2, 2) from (N, nx, nx)."""
     out = np.empty(phi.shape[:-2] + (2, 2))
-    for (r, c), idx in zip(_BLOCKS, ((0, 0), (0, 1), (1, 0), (1, 1)), strict=True):
-        out[..., idx[0], idx[1]] = spectral_norm(phi[..., r, c])
+    for i, r in enumerate((eta, v)):
+        for j, c in enumerate((eta, v)):
+            out[..., i, j] = spectral_norm(phi[..., r, :][..., c])
     return out
 
 
@@ -87,11 +86,13 @@ def path_prediction(
 
     Parameters
     ----------
-    model : Vehicle
+    model : Model
+        A vehicle, or any model whose states are positions/angles (units m, rad) and
+        rates (m/s, rad/s) (:func:`state_blocks`), with an exact Jacobian.
     method : str or method object
     clean : Trajectory
-        Exact samples at the sampling period of interest, ``x`` shape (N, 12).
-    amplitudes : ndarray, shape (12,)
+        Exact samples at the sampling period of interest, ``x`` shape (N, nx).
+    amplitudes : ndarray, shape (nx,)
         Uniform noise amplitudes per state component (state units).
     signal : Signal, optional
         Input between samples, for Runge-Kutta stages.
@@ -102,15 +103,16 @@ def path_prediction(
         samples are then computed once (see :meth:`sampledyn.methods.Method.predict`).
     """
     m = supported_method(method)
-    a = np.array([np.linalg.norm(amplitudes[ETA]), np.linalg.norm(amplitudes[V])])
+    eta, v = state_blocks(clean.state_units)
+    a = block_noise(amplitudes, clean.state_units)
     x_hat = m.predict(model, clean, signal, cache=cache)
-    t_eta, t_v = block_error_norms(clean.x - x_hat)
+    t_eta, t_v = block_error_norms(clean.x - x_hat, clean.state_units)
     phi = m.prediction_jacobians(model, clean, signal, cache=cache)
     noise = np.full((clean.n_samples, 2), np.nan)
     rows = ~np.isnan(phi).any(axis=(1, 2, 3))
     acc = np.zeros((int(rows.sum()), 2))
     for i in range(phi.shape[1]):
-        acc += _block_norms(phi[rows, i]) @ a
+        acc += _block_norms(phi[rows, i], eta, v) @ a
     noise[rows] = a[None, :] + acc
     tot_eta = t_eta + noise[:, 0]
     tot_v = t_v + noise[:, 1]

@@ -1,41 +1,23 @@
-"""Sensitivity of the bound to the pitch angle and to the vehicle's inertia (section 5.2)."""
+"""Sensitivity of the bound to the pitch angle, and vehicles of scaled inertia
+(section 5.2). The study that simulates the scaled vehicles and measures their errors
+is :func:`sampledyn.experiments.inertia_sensitivity`."""
 
 from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from .._trajectory import Trajectory
 from ..noise import noise_amplitudes
-from ._bound import (
-    ETA,
-    ErrorBound,
-    V,
-    _apply,
-    assemble_bound,
-    jacobian_pair,
-    reference_run,
-    truncation_errors,
-)
+from ._bound import ETA, V, _apply
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import noise_gain, supported_method
-from ._inputs import gentle_input
 from ._jacobians import J_norm, _corners, _jac, _v_blocks, dJ_norm, spectral_norm
-from ._path import path_prediction
-from ._validate import monte_carlo_check
 
-__all__ = [
-    "InertiaSensitivity",
-    "PitchSensitivity",
-    "inertia_sensitivity",
-    "pitch_sensitivity",
-    "scaled_inertia",
-]
+__all__ = ["PitchSensitivity", "pitch_sensitivity", "scaled_inertia"]
 
 DEFAULT_PITCH_DOMAIN = Domain(
     v_max=(0.1, 0.05, 0.05, 0.3, 0.3, 0.3), phi_max_deg=10.0, theta_max_deg=0.0, rpm_frac=0.2
@@ -222,175 +204,4 @@ def scaled_inertia(vehicle: Any, scale: float) -> Any:
         added_mass=tuple(np.asarray(vehicle.added_mass) * scale),
         volume=vehicle.volume * scale,
         name=f"{vehicle.name} x{scale:g} inertia",
-    )
-
-
-@dataclass(frozen=True)
-class InertiaSensitivity:
-    """The bound and the measured errors against an inertia scale factor.
-
-    Arrays have shape (K,) or (K, 2) (columns: eta, v), one row per ``scales``.
-
-    Attributes
-    ----------
-    scales : ndarray
-        Factor on M (mass, inertia, added mass; volume alike).
-    minv_norm : ndarray
-        ``||M^-1||`` of each scaled vehicle (1/kg, mixed).
-    lipschitz : ndarray, shape (K, 2, 2)
-        Jacobian maxima over the common domain.
-    noise_bound_fixed : ndarray, shape (K, 2)
-        Noise part of the bound over the common domain (the base vehicle's run), so
-        only M differs.
-    bound, predicted, truncation : ndarray, shape (K, 2)
-        Over each scaled vehicle's own run under the same input: the bound, the path
-        prediction and the undisturbed local error.
-    measured, measured_noise, measured_rms : ndarray, shape (K, 2)
-        Monte Carlo over that run (NaN without ``validate``): largest disturbed local
-        error, largest noise contribution ``||eps~_n - eps_n||`` and rms error.
-    bounds : tuple of ErrorBound
-        The full bounds of the own runs (empty without ``own_runs``).
-    method : str
-    h, eta_pct, v_pct : float
-    domain : Domain
-        The common domain.
-    """
-
-    scales: np.ndarray
-    minv_norm: np.ndarray
-    lipschitz: np.ndarray
-    noise_bound_fixed: np.ndarray
-    bound: np.ndarray
-    predicted: np.ndarray
-    measured: np.ndarray
-    measured_noise: np.ndarray
-    measured_rms: np.ndarray
-    truncation: np.ndarray
-    bounds: tuple[ErrorBound, ...]
-    method: str
-    h: float
-    eta_pct: float
-    v_pct: float
-    domain: Domain
-
-
-def inertia_sensitivity(
-    vehicle: Any,
-    scales: Sequence[float] = (0.25, 0.5, 1.0, 2.0, 4.0),
-    *,
-    method: str = "AB4",
-    h: float = 0.1,
-    eta_pct: float = 2.0,
-    v_pct: float = 2.0,
-    domain: Domain | None = None,
-    signal: Any = None,
-    T: float = 60.0,
-    validate: bool = True,
-    own_runs: bool = True,
-    seeds: int = 3,
-    samples: int = 2000,
-) -> InertiaSensitivity:
-    """The bound (24)-(25) for the same vehicle made lighter or heavier.
-
-    Parameters
-    ----------
-    vehicle : Vehicle
-    scales : sequence of float
-        Factors on M (see :func:`scaled_inertia`).
-    method : str
-        Rule.
-    h : float
-        Sampling period (s).
-    eta_pct, v_pct : float
-        Noise levels (%).
-    domain : Domain, optional
-        Common domain for ``noise_bound_fixed``; default: the box of the base
-        vehicle's run.
-    signal : Signal, optional
-        Thruster input of the runs (default :func:`gentle_input` of the base vehicle).
-    T : float
-        Run duration (s).
-    validate : bool
-        Measure the errors on ``seeds`` noisy copies of each run.
-    own_runs : bool
-        Simulate every scaled vehicle for ``bound``, ``predicted``, ``truncation``
-        (and ``measured``); without, those stay NaN and only the common-domain noise
-        bound is computed.
-    samples : int
-        Random samples of each Jacobian check.
-
-    Returns
-    -------
-    InertiaSensitivity
-    """
-    check_vehicle(vehicle)
-    m = supported_method(method)
-    sc = np.asarray(scales, dtype=float)
-    if sc.ndim != 1 or sc.size == 0 or not np.isfinite(sc).all() or (sc <= 0).any():
-        raise ValueError(f"`scales` must be positive numbers, got {scales!r}.")
-    signal = gentle_input(vehicle) if signal is None else signal
-    amp = noise_amplitudes(vehicle.state_units, eta_pct, v_pct)
-    if domain is None:
-        base, _ = reference_run(vehicle, h, signal, None, T)
-        domain = Domain.from_trajectory(base, vehicle.n_max, signal)
-    dom = domain
-    pitch_guard(vehicle, dom.theta_max_deg, "domain.theta_max_deg", stacklevel=3)
-    minv, lips, fixed = [], [], []
-    bound, pred, meas, meas_noise, meas_rms, trunc = (
-        np.full((sc.size, 2), np.nan) for _ in range(6)
-    )
-    bounds = []
-    for i, k in enumerate(sc):
-        veh = scaled_inertia(vehicle, float(k))
-        minv.append(float(np.linalg.norm(veh.minv, 2)))
-        rep, rep_p = jacobian_pair(veh, dom, amp, samples)
-        lips.append(rep.lipschitz)
-        b_fixed = assemble_bound(m, h, eta_pct, v_pct, amp, rep, rep_p, (0.0, 0.0))
-        fixed.append((b_fixed.eta.noise, b_fixed.v.noise))
-        if not own_runs:
-            continue
-        clean: Trajectory
-        clean, _ = reference_run(veh, h, signal, None, T)
-        own = Domain.from_trajectory(clean, veh.n_max, signal)
-        pitch_guard(veh, own.theta_max_deg, "scales", stacklevel=3)
-        r_own, r_own_p = jacobian_pair(veh, own, amp, samples)
-        tr = truncation_errors(veh, m, clean, signal)
-        b = assemble_bound(m, h, eta_pct, v_pct, amp, r_own, r_own_p, tr)
-        bounds.append(b)
-        bound[i] = b.total
-        trunc[i] = tr
-        p = path_prediction(veh, m, clean, amp, signal, eta_pct, v_pct)
-        pred[i] = (p.eta, p.v)
-        if validate:
-            (row,) = monte_carlo_check(
-                veh,
-                [m],
-                h,
-                [(eta_pct, v_pct)],
-                reference=clean,
-                signal=signal,
-                domain=own,
-                seeds=seeds,
-                samples=samples,
-            )
-            meas[i] = (row.measured_eta, row.measured_v)
-            meas_noise[i] = (row.noise_eta, row.noise_v)
-            meas_rms[i] = (row.rms_eta, row.rms_v)
-    return InertiaSensitivity(
-        scales=sc,
-        minv_norm=np.array(minv),
-        lipschitz=np.array(lips),
-        noise_bound_fixed=np.array(fixed),
-        bound=bound,
-        predicted=pred,
-        measured=meas,
-        measured_noise=meas_noise,
-        measured_rms=meas_rms,
-        truncation=trunc,
-        bounds=tuple(bounds),
-        method=m.name,
-        h=float(h),
-        eta_pct=float(eta_pct),
-        v_pct=float(v_pct),
-        domain=dom,
     )

@@ -4,8 +4,9 @@ a Dask distributed cluster.
 Every backend takes an iterator of tasks (:class:`Chunk`) and pulls the next one only
 when it has room (a few per worker), so the caller can claim cells just before they
 are computed and a grid of any size streams through in bounded memory. Each backend
-yields :class:`ChunkResult`s as they finish; the exact samples of a trajectory are
-computed once, when its first task arrives, and handed to all its tasks.
+yields :class:`ChunkResult`s as they finish; the exact samples of a simulation
+(:class:`SimPlan`) are computed once, when the first task of one of its trajectories
+arrives, and handed to all their tasks.
 
 Local workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux,
 and a watchdog on the parent's pid everywhere), leave Ctrl-C to it, and are terminated
@@ -22,13 +23,13 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
 from ...simulate import simulate
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
-from ._plan import Chunk, Setup
+from ._plan import Chunk, Setup, SimPlan
 
 __all__ = [
     "DASK_WORKER_ENVIRON",
@@ -57,14 +58,18 @@ DASK_WORKER_ENVIRON: dict[str, Any] = {"MALLOC_TRIM_THRESHOLD_": None}
 # -- in this process ------------------------------------------------------------------
 
 
-def in_process(setup: Setup, tasks: Iterator[Chunk]) -> Iterator[ChunkResult]:
+def in_process(
+    setup: Setup, sims: Mapping[str, SimPlan], tasks: Iterator[Chunk]
+) -> Iterator[ChunkResult]:
     """Run every task here, in the order given."""
-    sim: SimResult | None = None
+    bundle: dict[str, SimResult] = {}
+    bundle_key = None
     for chunk in tasks:
-        if sim is None or sim.traj_key != chunk.traj_key:
-            sim = None  # free the previous trajectory first
-            sim = simulate_trajectory(setup, chunk.traj_key, chunk.h)
-        yield compute_chunk(setup, sim, chunk)
+        if bundle_key != chunk.sim_key:
+            bundle = {}  # free the previous samples first
+            bundle = simulate_trajectory(setup, sims[chunk.sim_key])
+            bundle_key = chunk.sim_key
+        yield compute_chunk(setup, bundle[chunk.traj_key], chunk)
 
 
 # -- local worker processes -----------------------------------------------------------
@@ -155,28 +160,33 @@ def stop_pool(pool: ProcessPoolExecutor, *, terminate: bool) -> None:
 def local_processes(
     pool: ProcessPoolExecutor,
     setup: Setup,
+    sims: Mapping[str, SimPlan],
     tasks: Iterator[Chunk],
     *,
     in_flight: int,
-    trajectories: Sequence[tuple[str, float]] = (),
 ) -> Iterator[ChunkResult]:
     """Run on a pool of local processes (:func:`start_pool`), at most ``in_flight``
-    tasks pulled and not finished. Each trajectory is simulated by one worker when
-    its first task arrives (its tasks then go out with the samples), and, if the
-    plan's ``trajectories`` (key, h) are given in task order, the next one is
-    simulated meanwhile, so no worker waits for exact samples between trajectories.
+    tasks pulled and not finished. Each simulation runs on one worker when the first
+    task of one of its trajectories arrives (its tasks then go out with their
+    trajectory's samples), and the next simulation of ``sims`` (in plan order) runs
+    meanwhile, so no worker waits for exact samples between trajectories.
     """
-    order = {key: i for i, (key, _) in enumerate(trajectories)}
-    sims: dict[str, SimResult] = {}
+    order = {key: i for i, key in enumerate(sims)}
+    keys = list(sims)
+    bundles: dict[str, dict[str, SimResult]] = {}
     simulating: dict[Future[Any], str] = {}
     parked: dict[str, list[Chunk]] = {}
     running: dict[Future[Any], str] = {}
     exhausted = False
     last = ""
 
-    def simulate(key: str, h: float) -> None:
-        if key not in sims and key not in simulating.values():
-            simulating[pool.submit(simulate_trajectory, setup, key, h)] = key
+    def start(key: str) -> None:
+        if key not in bundles and key not in simulating.values():
+            simulating[pool.submit(simulate_trajectory, setup, sims[key])] = key
+
+    def submit(chunk: Chunk) -> None:
+        sim = bundles[chunk.sim_key][chunk.traj_key]
+        running[pool.submit(compute_chunk, setup, sim, chunk)] = chunk.sim_key
 
     while True:
         while not exhausted and len(running) + sum(map(len, parked.values())) < in_flight:
@@ -184,32 +194,32 @@ def local_processes(
             if chunk is None:
                 exhausted = True
                 break
-            last = chunk.traj_key
-            if last in sims:
-                running[pool.submit(compute_chunk, setup, sims[last], chunk)] = last
+            last = chunk.sim_key
+            if last in bundles:
+                submit(chunk)
                 continue
-            simulate(last, chunk.h)
+            start(last)
             parked.setdefault(last, []).append(chunk)
-            if last in order and order[last] + 1 < len(trajectories):
-                simulate(*trajectories[order[last] + 1])  # one trajectory ahead
+            if order[last] + 1 < len(keys):
+                start(keys[order[last] + 1])  # one simulation ahead
         if not running and not simulating:
             return
         done, _ = wait([*running, *simulating], return_when=FIRST_COMPLETED)
         for fut in done:
             if fut in simulating:
                 key = simulating.pop(fut)
-                sims[key] = fut.result()
+                bundles[key] = fut.result()
                 for chunk in parked.pop(key, []):
-                    running[pool.submit(compute_chunk, setup, sims[key], chunk)] = key
+                    submit(chunk)
             else:
                 running.pop(fut)
                 yield fut.result()
-        # Keep the samples of running tasks, of the trajectory being pulled and of
+        # Keep the samples of running tasks, of the simulation being pulled and of
         # the one simulated ahead of it.
         here = order.get(last, -1)
         busy = {last, *running.values()}
-        for key in [k for k in sims if k not in busy and order.get(k, -1) <= here]:
-            del sims[key]
+        for key in [k for k in bundles if k not in busy and order[k] <= here]:
+            del bundles[key]
 
 
 # -- Dask -----------------------------------------------------------------------------
@@ -292,8 +302,18 @@ def local_cluster(n_workers: int = 2, threads_per_worker: int = 1, **kwargs: Any
         )
 
 
+def _pick(bundle: Mapping[str, SimResult], traj_key: str) -> SimResult:
+    return bundle[traj_key]
+
+
 def dask_backend(
-    client: Any, setup: Setup, tasks: Iterator[Chunk], run_id: str, *, in_flight: int
+    client: Any,
+    setup: Setup,
+    sims: Mapping[str, SimPlan],
+    tasks: Iterator[Chunk],
+    run_id: str,
+    *,
+    in_flight: int,
 ) -> Iterator[ChunkResult]:
     """Run on a Dask distributed cluster (``client`` from :func:`connect`, closed at
     the end), at most ``in_flight`` tasks submitted and not finished.
@@ -304,7 +324,8 @@ def dask_backend(
     from distributed import as_completed
 
     futures: set[Any] = set()
-    sims: dict[str, Any] = {}
+    bundle: dict[str, Any] = {}  # sim_key -> future of the simulation
+    trajs: dict[str, Any] = {}  # traj_key -> future of its samples
     try:
         [setup_f] = client.scatter([setup], broadcast=True, hash=False)
         queue = as_completed([], loop=client.loop)
@@ -316,23 +337,31 @@ def dask_backend(
                 if chunk is None:
                     exhausted = True
                     break
-                if chunk.traj_key not in sims:
-                    # Tasks come trajectory by trajectory: the cluster keeps the samples
-                    # of earlier ones while their tasks run, not longer.
-                    sims = {
-                        chunk.traj_key: client.submit(
+                if chunk.sim_key not in bundle:
+                    # Tasks come simulation by simulation: the cluster keeps the
+                    # samples of earlier ones while their tasks run, not longer.
+                    bundle = {
+                        chunk.sim_key: client.submit(
                             simulate_trajectory,
                             setup_f,
-                            chunk.traj_key,
-                            chunk.h,
-                            key=f"sampledyn-sim-{run_id}-{chunk.traj_key[:16]}",
+                            sims[chunk.sim_key],
+                            key=f"sampledyn-sim-{run_id}-{chunk.sim_key[:16]}",
                             pure=False,
                         )
                     }
+                    trajs = {}
+                if chunk.traj_key not in trajs:
+                    trajs[chunk.traj_key] = client.submit(
+                        _pick,
+                        bundle[chunk.sim_key],
+                        chunk.traj_key,
+                        key=f"sampledyn-traj-{run_id}-{chunk.traj_key[:16]}",
+                        pure=False,
+                    )
                 fut = client.submit(
                     compute_chunk,
                     setup_f,
-                    sims[chunk.traj_key],
+                    trajs[chunk.traj_key],
                     chunk,
                     key=f"sampledyn-cells-{run_id}-{n}",
                     pure=False,
@@ -348,5 +377,5 @@ def dask_backend(
             fut.release()
             yield result
     finally:
-        client.cancel(list(futures) + list(sims.values()))
+        client.cancel(list(futures) + list(bundle.values()) + list(trajs.values()))
         client.close()

@@ -1,4 +1,6 @@
-"""What a worker runs: exact samples of one trajectory, then chunks of cells on them.
+"""What a worker runs: the exact samples of one simulation, then chunks of cells on
+them. This is the one cell function of every study (sweeps, Figs. 2, 3 and 7, the
+Monte Carlo of ``advise``, the bound validation).
 
 Both functions are pure (same arguments, same numbers, on any worker) and return
 plain picklable values; only the client writes the results store.
@@ -6,6 +8,21 @@ plain picklable values; only the client writes the results store.
 A deterministic failure of a cell (e.g. the vehicle pitching through 90 deg, where
 J(eta) is singular) is returned as a row with status "error" and the message, so the
 sweep goes on and a rerun does not retry it (``--retry-failed`` does).
+
+Which model and which input a rule predicts with
+------------------------------------------------
+This is the one place that decides it (:func:`prediction_inputs`).
+
+* Open loop: every rule predicts with the model and the sampled input; the rules
+  that evaluate f between samples (RK_s, Tustin: ``method.intersample``) take the
+  input between samples from the signal.
+* Closed loop (a plant closed by a feedback law): the data are what a log records,
+  the states and the plant input the law applied (the measured input n_delta of the
+  paper's Fig. 1). Rules that use f at the samples only (E, AB_s, ABu_s, the
+  estimated rules, ...) predict with the plant and that applied input; they need
+  nothing else. Rules that evaluate f between samples need the plant input between
+  samples, which only the loop knows: they predict with the closed-loop model, fed
+  with the reference input at the samples and, between them, from the signal.
 """
 
 from __future__ import annotations
@@ -14,19 +31,31 @@ import os
 import socket
 import time
 import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..._trajectory import Trajectory
-from ...errors import error_norm, local_errors
+from ...errors import local_errors
 from ...methods import ConvergenceError, get_method
-from ...noise import NOISE_REFERENCE, add_noise
+from ...models import ClosedLoop
+from ...noise import add_noise
+from ...predict import predict
 from ...simulate import IntegrationError, simulate
-from ._plan import Chunk, Group, Setup
+from ._norms import NormSpec, measure, parse_norm
+from ._plan import Chunk, Group, Setup, SimPlan
+from ._summaries import summarize_trajectory
 
-__all__ = ["ChunkResult", "SimResult", "compute_chunk", "simulate_trajectory"]
+__all__ = [
+    "ChunkResult",
+    "SimResult",
+    "compute_chunk",
+    "exact_samples",
+    "prediction_inputs",
+    "simulate_trajectory",
+]
 
 # Failures that are a property of the cell (deterministic), recorded as its result.
 CELL_ERRORS = (ValueError, ArithmeticError, IntegrationError, ConvergenceError)
@@ -35,11 +64,18 @@ _MAX_MESSAGE = 400
 
 @dataclass(frozen=True)
 class SimResult:
-    """Exact samples of one trajectory (``traj`` None if simulation failed)."""
+    """The exact samples of one trajectory (``traj`` None if simulation failed).
+
+    ``traj`` holds what a log records (states and the plant input; in a closed loop
+    the input the law applied); ``reference_u`` the reference input at the samples of
+    a closed loop (None in open loop); ``input_index`` the study input it came from.
+    """
 
     traj_key: str
     traj: Trajectory | None
     meta: dict[str, Any] = field(default_factory=dict)
+    reference_u: np.ndarray | None = None
+    input_index: int = 0
 
 
 @dataclass(frozen=True)
@@ -60,51 +96,188 @@ def _messages(caught: list[warnings.WarningMessage]) -> str:
     return text[:_MAX_MESSAGE]
 
 
-def simulate_trajectory(setup: Setup, traj_key: str, h: float) -> SimResult:
-    """Exact samples at period ``h`` with their certificate (kept in ``meta`` only)."""
+def exact_samples(
+    model: Any, signal: Any, T: float, h: float, x0: Any = None, rtol: float = 1e-12
+) -> Trajectory:
+    """The engine's exact samples of ``model`` under ``signal``: :func:`sampledyn.simulate`
+    with ``rtol`` = ``atol``, certified. Studies that need the samples in hand (the
+    analysis of ``advise``) take them from here and give them to the engine as
+    ``reference``, so they are simulated once."""
+    return simulate(model, signal, T=T, h=h, x0=x0, rtol=rtol, atol=rtol)
+
+
+def simulate_trajectory(setup: Setup, sim: SimPlan) -> dict[str, SimResult]:
+    """The exact samples of ``sim`` (simulated once, or taken from the study's
+    reference samples) for each of its trajectories: every k-th sample, with the
+    certificate and the summaries kept in ``meta`` only.
+
+    Returns
+    -------
+    dict traj_key -> SimResult
+    """
     t0 = time.perf_counter()
-    meta: dict[str, Any] = {"h": h, "worker": _worker()}
+    worker = _worker()
+    signal = setup.signals[sim.input_index]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            traj = simulate(setup.model, setup.signal, T=setup.T, h=h, x0=setup.x0)
+            if setup.reference is not None:
+                base = setup.reference
+            else:
+                base = exact_samples(setup.model, signal, setup.T, sim.h, setup.x0, setup.rtol)
         except CELL_ERRORS as exc:
-            meta.update(status="error", error=f"exact samples failed: {exc}"[:_MAX_MESSAGE])
-            meta.update(seconds=time.perf_counter() - t0, warnings=_messages(caught))
-            return SimResult(traj_key, None, meta)
-    cert = traj.certificate
-    meta.update(
-        status="ok",
-        error="",
-        seconds=time.perf_counter() - t0,
-        n_samples=traj.n_samples,
-        certificate=cert.max_error if cert is not None else float("nan"),
-        warnings=_messages(caught),
-    )
-    # The certificate's per-interval arrays are summarised above; do not ship them.
-    return SimResult(traj_key, traj.replace(certificate=None), meta)
-
-
-def _groups(units: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """State components of eta (positions, angles) and v (rates), by unit."""
-    kind = np.array([NOISE_REFERENCE.get(u, ("", 0.0))[0] for u in units])
-    return {"eta": np.flatnonzero(kind == "eta"), "v": np.flatnonzero(kind == "v")}
-
-
-def _norms(
-    err: np.ndarray, t: np.ndarray, norm: str, after: float, comps: dict
-) -> dict[str, float]:
-    out = {"err_all": error_norm(err, t, norm, after)}
-    for name, idx in comps.items():
-        out[f"err_{name}"] = error_norm(err, t, norm, after, idx) if idx.size else float("nan")
+            failed = {
+                "worker": worker,
+                "status": "error",
+                "error": f"exact samples failed: {exc}"[:_MAX_MESSAGE],
+                "seconds": time.perf_counter() - t0,
+                "warnings": _messages(caught),
+                "simulated_h": sim.h,
+            }
+            return {
+                key: SimResult(key, None, {**failed, "h": h}, None, sim.input_index)
+                for key, h, _k in sim.members
+            }
+        seconds = time.perf_counter() - t0
+        out = {}
+        for i, (key, h, k) in enumerate(sim.members):
+            exact = base if k == 1 else base.subsample(k)
+            cert = exact.certificate
+            meta: dict[str, Any] = {
+                "h": h,
+                "worker": worker,
+                "status": "ok",
+                "error": "",
+                "seconds": seconds if i == 0 else 0.0,
+                "n_samples": exact.n_samples,
+                "certificate": cert.max_error if cert is not None else float("nan"),
+                "simulated_h": sim.h,
+            }
+            try:
+                meta["summary"] = summarize_trajectory(setup.summaries, setup.model, exact)
+            except CELL_ERRORS as exc:
+                meta["summary"] = {}
+                warnings.warn(f"trajectory summary failed: {exc}", stacklevel=1)
+            reference_u = None
+            if setup.closed_loop:
+                plant = setup.plant
+                applied = setup.model.applied_input(exact.t, exact.x, exact.u)
+                reference_u = exact.u
+                exact = exact.replace(
+                    u=applied,
+                    input_names=tuple(plant.input_names),
+                    input_units=tuple(getattr(plant, "input_units", ()) or ()),
+                )
+            # The certificate's per-interval arrays are summarised above; do not ship them.
+            out[key] = SimResult(
+                key, exact.replace(certificate=None, clean=None), meta, reference_u,
+                sim.input_index,
+            )  # fmt: skip
+    msgs = _messages(caught)
+    for res in out.values():
+        res.meta["warnings"] = msgs
     return out
 
 
-def _group_rows(setup: Setup, traj: Trajectory, group: Group) -> list[dict[str, Any]]:
+def prediction_inputs(
+    model: Any, method: Any, measured: Trajectory, reference: Trajectory | None, signal: Any
+) -> tuple[Any, Trajectory, Any]:
+    """(model, data, signal) ``method`` predicts with (see the module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        The simulated model: a :class:`sampledyn.models.ClosedLoop` (plant and law)
+        or an open-loop model.
+    method : method object
+    measured : Trajectory
+        The log: states and the plant input (the applied one, in a closed loop).
+    reference : Trajectory or None
+        The same samples with the reference input of a closed loop (None in open loop).
+    signal : Signal
+        The input between samples (the reference, in a closed loop).
+    """
+    if not isinstance(model, ClosedLoop):
+        return model, measured, signal
+    if method.intersample:
+        return model, reference if reference is not None else measured, signal
+    return model.plant, measured, None
+
+
+class _MemoSignal:
+    """A signal whose stage inputs are computed once per grid: every seed of a chunk
+    asks for the same ``intersample(t, tau)``."""
+
+    def __init__(self, signal: Any) -> None:
+        self._signal = signal
+        self.nu = signal.nu
+        self._cache: dict[tuple[int, float, float, float], np.ndarray] = {}
+
+    def __call__(self, t: Any) -> np.ndarray:
+        return self._signal(t)
+
+    def intersample(self, t_start: np.ndarray, tau: float) -> np.ndarray:
+        key = (t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
+        if key not in self._cache:
+            self._cache[key] = self._signal.intersample(t_start, tau)
+        return self._cache[key]
+
+
+class _Context:
+    """What the groups of one chunk share: the exact samples, the signal, the masks
+    and the undisturbed local errors of each rule."""
+
+    def __init__(self, setup: Setup, sim: SimResult) -> None:
+        assert sim.traj is not None
+        self.setup = setup
+        self.traj = sim.traj
+        self.reference_u = sim.reference_u
+        self.signal = _MemoSignal(setup.signals[sim.input_index])
+        self._specs: dict[str, NormSpec] = {}
+        self._masks: dict[NormSpec, np.ndarray | None] = {}
+        self._clean: dict[str, np.ndarray] = {}
+
+    def spec(self, norm: str) -> NormSpec:
+        if norm not in self._specs:
+            self._specs[norm] = parse_norm(norm)
+        return self._specs[norm]
+
+    def masks(self, specs: list[NormSpec]) -> Mapping[NormSpec, np.ndarray | None]:
+        for s in specs:
+            if s not in self._masks:
+                self._masks[s] = s.mask_of(self.traj, self.setup.model)
+        return self._masks
+
+    def with_reference(self, data: Trajectory) -> Trajectory | None:
+        return None if self.reference_u is None else data.replace(u=self.reference_u)
+
+    def clean_errors(self, method: Any) -> np.ndarray:
+        """Undisturbed local errors of ``method`` (on the exact samples)."""
+        if method.name not in self._clean:
+            clean = self.traj
+            model, data, signal = prediction_inputs(
+                self.setup.model, method, clean, self.with_reference(clean), self.signal
+            )
+            x_hat = predict(method, model, data, signal)
+            self._clean[method.name] = local_errors(x_hat, clean)
+        return self._clean[method.name]
+
+
+def _noise_part(ctx: _Context, method: Any, err: np.ndarray) -> Callable[[], np.ndarray]:
+    """The noise contributions (disturbed minus undisturbed local errors), on demand."""
+
+    def part() -> np.ndarray:
+        return err - ctx.clean_errors(method)
+
+    return part
+
+
+def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
+    setup = ctx.setup
     t_group = time.perf_counter()
     seq = np.random.SeedSequence([setup.base_seed, group.seed])
-    measured = add_noise(traj, group.eta_pct, group.v_pct, seq, distribution=setup.distribution)
-    comps = _groups(traj.state_units)
+    measured = add_noise(ctx.traj, group.eta_pct, group.v_pct, seq, distribution=setup.distribution)
+    reference = ctx.with_reference(measured)
     cache: dict[Any, Any] = {}  # f at the samples, shared by every AB-type rule
     by_method: dict[str, list[tuple[str, str]]] = {}
     for key, name, norm in group.cells:
@@ -117,29 +290,37 @@ def _group_rows(setup: Setup, traj: Trajectory, group: Group) -> list[dict[str, 
             warnings.simplefilter("always")
             try:
                 method = get_method(method_name)
-                x_hat = np.asarray(method.predict(setup.model, measured, setup.signal, cache=cache))
+                model, data, signal = prediction_inputs(
+                    setup.model, method, measured, reference, ctx.signal
+                )
+                x_hat = predict(method, model, data, signal, cache=cache)
                 err = local_errors(x_hat, measured)
-                values = [
-                    (key, norm, _norms(err, measured.t, norm, setup.after, comps), "")
-                    for key, norm in cells
-                ]
+                specs = [ctx.spec(norm) for _key, norm in cells]
+                found = measure(
+                    specs,
+                    err,
+                    measured.t,
+                    setup.after,
+                    measured.state_units,
+                    ctx.masks(specs),
+                    noise_err=_noise_part(ctx, method, err),
+                )
+                values = [(key, *found[ctx.spec(norm)]) for key, norm in cells]
             except CELL_ERRORS as exc:
-                values = [
-                    (key, norm, {}, f"{type(exc).__name__}: {exc}"[:_MAX_MESSAGE])
-                    for key, norm in cells
-                ]
+                message = f"{type(exc).__name__}: {exc}"[:_MAX_MESSAGE]
+                values = [(key, {}, message) for key, _norm in cells]
         seconds = (time.perf_counter() - t0 + shared / len(by_method)) / len(cells)
         msgs = _messages(caught)
-        for key, _norm, norms, error in values:
+        for key, norms, error in values:
             rows.append(
                 {
                     "key": key,
                     "status": "error" if error else "ok",
-                    "err_eta": norms.get("err_eta", float("nan")),
-                    "err_v": norms.get("err_v", float("nan")),
-                    "err_all": norms.get("err_all", float("nan")),
+                    "err_eta": norms.get("eta", float("nan")),
+                    "err_v": norms.get("v", float("nan")),
+                    "err_all": norms.get("all", float("nan")),
                     "seconds": seconds,
-                    "error": error,
+                    "error": error[:_MAX_MESSAGE],
                     "warnings": msgs,
                 }
             )
@@ -166,8 +347,9 @@ def compute_chunk(setup: Setup, sim: SimResult, chunk: Chunk) -> ChunkResult:
                     }
                 )
     else:
+        ctx = _Context(setup, sim)
         for group in chunk.groups:
-            rows.extend(_group_rows(setup, sim.traj, group))
+            rows.extend(_group_rows(ctx, group))
     for r in rows:
         r["worker"] = worker
     return ChunkResult(chunk.traj_key, sim.meta, rows)

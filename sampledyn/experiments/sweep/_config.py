@@ -1,12 +1,14 @@
 """The grid of a sweep, read from a TOML file and checked before anything runs.
 
-A sweep file names one vehicle, one input, one duration and error window, and lists
+A sweep file names one vehicle, its inputs, one duration and error window, and lists
 the values to cross::
 
-    vehicle = "bluerov2_heavy"   # built-in name, vehicle file (relative to this file)
+    vehicle = "rexrov"           # built-in name, vehicle file (relative to this file)
                                  # or "auv_like" (eqs. (9)-(10))
     buoyancy_pct = 1.0           # optional, vehicles only: B = (1 + pct/100) W
-    input = "fig6"               # or a table: { name = "multilevel", hold = 0.1 }
+    feedback = { law = "roll_pitch_hold", kp = 40.0, kd = 6.0 }   # optional closed loop
+    input = "fig6"               # or a table: { name = "multilevel", hold = 0.1 },
+                                 # or a list of them (crossed with h)
     T = 5000.0                   # s
     after = 1000.0               # errors on t >= after (s)
     h = [0.1, 0.5]               # s
@@ -15,11 +17,24 @@ the values to cross::
     v_pct = [0, 2]
     # noise = [[0, 0], [2, 0]]   # ... or explicit (eta %, v %) pairs instead
     seeds = 10                   # 0..9, or a list of seeds
-    norm = "l2_over_n"           # or a list; see sampledyn.errors.ERROR_NORMS
+    norm = "l2_over_n"           # or a list; see sampledyn.experiments.sweep.parse_norm
     base_seed = 0                # optional
     distribution = "uniform"     # optional, or "gaussian"
     x0 = [1.0, 0.0]              # optional initial state (default: the model's)
+    rtol = 1e-12                 # optional tolerance of the exact samples (atol the same)
+    summaries = ["motion"]       # optional numbers stored per trajectory
     max_cells = 1000000          # optional: refuse a bigger grid (default 1,000,000)
+
+    [per_vehicle.bluerov2_heavy] # optional: settings that apply when `vehicle` is this
+    feedback = { law = "roll_pitch_hold", kp = 40.0, kd = 6.0 }
+
+A norm is a string (:mod:`._norms`): ``rms``, ``max[rad]`` (Euler angles only),
+``rms@away_from_jumps`` (only samples whose history holds no input jump), ...; every
+cell stores it over the position/angle components, the rate components and all.
+
+A ``per_vehicle`` entry gives the keys that hold for one vehicle (the Fig. 7 study
+closes a roll-pitch loop on the BlueROV2 Heavy only); a key given at the top level
+wins over it.
 
 Nothing is enumerated here: a count of seeds stays a ``range`` and crossed
 ``eta_pct``/``v_pct`` lists stay a :class:`NoiseGrid`, so a grid of any size is read
@@ -37,8 +52,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ...errors import ERROR_NORMS
 from ...methods import get_method
+from ._norms import parse_norm
+from ._summaries import SUMMARIES
 
 __all__ = ["DEFAULT_MAX_CELLS", "NoiseGrid", "SweepConfig", "SweepConfigError", "load_config"]
 
@@ -46,6 +62,7 @@ __all__ = ["DEFAULT_MAX_CELLS", "NoiseGrid", "SweepConfig", "SweepConfigError", 
 DEFAULT_MAX_CELLS = 1_000_000
 
 _DISTRIBUTIONS = ("uniform", "gaussian")
+_DEFAULT_VEHICLE = "bluerov2_heavy"
 _KEYS = (
     "vehicle",
     "buoyancy_pct",
@@ -64,7 +81,12 @@ _KEYS = (
     "distribution",
     "x0",
     "max_cells",
+    "feedback",
+    "rtol",
+    "summaries",
+    "per_vehicle",
 )
+_PER_VEHICLE_KEYS = tuple(k for k in _KEYS if k not in ("vehicle", "per_vehicle"))
 
 
 @dataclass(frozen=True)
@@ -115,9 +137,10 @@ class SweepConfig:
     Attributes
     ----------
     vehicle : str
-        Built-in vehicle name, absolute path of a vehicle file, or "auv_like".
-    input : Mapping[str, Any]
-        ``{"name": <registered input>, **parameters}``.
+        Built-in vehicle name, absolute path of a vehicle file, or "auv_like"; with
+        ``model`` given, a label of that model.
+    inputs : tuple of Mapping[str, Any]
+        ``{"name": <registered input>, **parameters}`` per input (crossed with h).
     T, after : float
         Duration and start of the error window (s).
     h : tuple of float
@@ -130,7 +153,7 @@ class SweepConfig:
         Noise seeds (a tuple, or a ``range`` for a count); the noise-free pair (0, 0)
         runs with the first seed only, since its result does not depend on the seed.
     norms : tuple of str
-        Error norms, one cell each.
+        Norms (canonical strings, :func:`parse_norm`), one cell each.
     base_seed : int
         Seed k of a cell draws from ``SeedSequence([base_seed, k])``.
     distribution : str
@@ -141,12 +164,26 @@ class SweepConfig:
         Initial state of the exact samples; None uses the model's default.
     max_cells : int or None
         Largest grid to run (None: :data:`DEFAULT_MAX_CELLS`).
+    feedback : Mapping[str, Any] or None
+        ``{"law": <registered law>, **parameters}``: the model is the plant closed by
+        this law (a closed-loop study); None: open loop.
+    rtol : float
+        Relative (and absolute) tolerance of the exact samples.
+    summaries : tuple of str
+        Numbers stored with each trajectory (:data:`SUMMARIES`).
+    model : object or None
+        A model object instead of ``vehicle`` (from Python, not from a file).
+    signals : tuple or None
+        Signal objects instead of named ``inputs`` (from Python), one per input.
+    reference : Trajectory or None
+        Exact samples to use instead of simulating (from Python): every h must be a
+        multiple of its period; with one input only.
     source : str
         Where the config came from (file path or "<dict>").
     """
 
     vehicle: str
-    input: Mapping[str, Any]
+    inputs: tuple[Mapping[str, Any], ...]
     T: float
     after: float
     h: tuple[float, ...]
@@ -159,13 +196,19 @@ class SweepConfig:
     buoyancy_pct: float | None = None
     x0: tuple[float, ...] | None = None
     max_cells: int | None = None
+    feedback: Mapping[str, Any] | None = None
+    rtol: float = 1e-12
+    summaries: tuple[str, ...] = ()
+    model: Any = field(default=None, compare=False)
+    signals: tuple[Any, ...] | None = field(default=None, compare=False)
+    reference: Any = field(default=None, compare=False)
     source: str = field(default="<dict>", compare=False)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON-able description (recorded with each run)."""
         return {
             "vehicle": self.vehicle,
-            "input": dict(self.input),
+            "input": [dict(i) for i in self.inputs],
             "T": self.T,
             "after": self.after,
             "h": list(self.h),
@@ -186,6 +229,9 @@ class SweepConfig:
             "buoyancy_pct": self.buoyancy_pct,
             "x0": None if self.x0 is None else list(self.x0),
             "max_cells": self.max_cells,
+            "feedback": None if self.feedback is None else dict(self.feedback),
+            "rtol": self.rtol,
+            "summaries": list(self.summaries),
         }
 
     @classmethod
@@ -246,7 +292,7 @@ def _percentages(key: str, value: Any, src: str) -> tuple[float, ...]:
 
 
 def _vehicle(data: Mapping[str, Any], base: Path | None, src: str) -> str:
-    vehicle = data.get("vehicle", "bluerov2_heavy")
+    vehicle = data.get("vehicle", _DEFAULT_VEHICLE)
     if not isinstance(vehicle, str) or not vehicle.strip():
         raise SweepConfigError(
             "vehicle", f"`vehicle`{_where(src)} must be a string, got {vehicle!r}."
@@ -261,21 +307,99 @@ def _vehicle(data: Mapping[str, Any], base: Path | None, src: str) -> str:
     return vehicle.strip()
 
 
-def _input(data: Mapping[str, Any], src: str) -> dict[str, Any]:
+def _inputs(data: Mapping[str, Any], src: str) -> tuple[dict[str, Any], ...]:
     from ._inputs import check_input
 
     raw = data.get("input")
     if raw is None:
         raise SweepConfigError("input", f'`input`{_where(src)} is required, e.g. input = "fig6".')
-    spec = {"name": raw} if isinstance(raw, str) else dict(raw) if isinstance(raw, dict) else None
-    if spec is None:
+    out = []
+    for item in raw if isinstance(raw, list) and raw else [raw]:
+        spec = (
+            {"name": item}
+            if isinstance(item, str)
+            else dict(item)
+            if isinstance(item, dict)
+            else None
+        )
+        if spec is None:
+            raise SweepConfigError(
+                "input", f"`input`{_where(src)} must be a name, a table or a list, got {raw!r}."
+            )
+        try:
+            out.append(check_input(spec))
+        except ValueError as exc:
+            raise SweepConfigError("input", f"`input`{_where(src)}: {exc}") from exc
+    if len({repr(sorted(i.items())) for i in out}) != len(out):
+        raise SweepConfigError("input", f"`input`{_where(src)} lists an input twice.")
+    return tuple(out)
+
+
+def _feedback(data: Mapping[str, Any], src: str) -> dict[str, Any] | None:
+    from ._inputs import check_feedback
+
+    raw = data.get("feedback")
+    if raw is None or raw == "none":
+        return None
+    if not isinstance(raw, dict):
         raise SweepConfigError(
-            "input", f"`input`{_where(src)} must be a name or a table, got {raw!r}."
+            "feedback",
+            f"`feedback`{_where(src)} must be a table such as "
+            f'{{ law = "roll_pitch_hold", kp = 40.0 }} or "none", got {raw!r}.',
         )
     try:
-        return check_input(spec)
+        return check_feedback(raw)
     except ValueError as exc:
-        raise SweepConfigError("input", f"`input`{_where(src)}: {exc}") from exc
+        raise SweepConfigError("feedback", f"`feedback`{_where(src)}: {exc}") from exc
+
+
+def _norms(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
+    raw = data.get("norm", "rms")
+    values = raw if isinstance(raw, list) else [raw]
+    if not values:
+        raise SweepConfigError("norm", f"`norm`{_where(src)} must not be empty.")
+    out = []
+    for n in values:
+        try:
+            out.append(parse_norm(n).text)
+        except ValueError as exc:
+            raise SweepConfigError("norm", f"`norm`{_where(src)}: {exc}") from exc
+    return tuple(dict.fromkeys(out))
+
+
+def _summaries(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
+    raw = data.get("summaries", [])
+    raw = [raw] if isinstance(raw, str) else raw
+    if not isinstance(raw, list) or any(n not in SUMMARIES for n in raw):
+        raise SweepConfigError(
+            "summaries",
+            f"`summaries`{_where(src)} must be a list of {', '.join(SUMMARIES)}, got {raw!r}.",
+        )
+    return tuple(dict.fromkeys(raw))
+
+
+def _apply_per_vehicle(data: Mapping[str, Any], src: str) -> Mapping[str, Any]:
+    """``data`` with the ``per_vehicle`` entry of its vehicle merged in (top-level
+    keys win)."""
+    table = data.get("per_vehicle")
+    if table is None:
+        return data
+    if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
+        raise SweepConfigError(
+            "per_vehicle",
+            f"`per_vehicle`{_where(src)} must be a table of tables, one per vehicle name.",
+        )
+    for name, entry in table.items():
+        bad = sorted(set(entry) - set(_PER_VEHICLE_KEYS))
+        if bad:
+            raise SweepConfigError(
+                "per_vehicle",
+                f"`per_vehicle.{name}`{_where(src)}: unknown key `{bad[0]}`; valid keys: "
+                f"{', '.join(_PER_VEHICLE_KEYS)}.",
+            )
+    vehicle = str(data.get("vehicle", _DEFAULT_VEHICLE))
+    entry = table.get(vehicle) or table.get(Path(vehicle).stem) or {}
+    return {**entry, **{k: v for k, v in data.items() if k != "per_vehicle"}}
 
 
 def _methods(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
@@ -355,6 +479,7 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
         raise SweepConfigError(
             unknown[0], f"unknown key `{unknown[0]}`{_where(src)}; valid keys: {', '.join(_KEYS)}."
         )
+    data = _apply_per_vehicle(data, src)
     for key in ("T", "after", "h"):
         if key not in data:
             raise SweepConfigError(key, f"`{key}`{_where(src)} is required.")
@@ -370,13 +495,6 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
         if abs(ratio - round(ratio)) > 1e-9 * ratio:
             raise SweepConfigError(
                 "h", f"`h` = {h:g} s{_where(src)} does not divide T = {T:g} s into whole steps."
-            )
-    norms_raw = data.get("norm", "rms")
-    norms = tuple(norms_raw) if isinstance(norms_raw, list) else (norms_raw,)
-    for n in norms:
-        if n not in ERROR_NORMS:
-            raise SweepConfigError(
-                "norm", f"`norm`{_where(src)}: unknown {n!r}; valid: {', '.join(ERROR_NORMS)}."
             )
     base_seed = data.get("base_seed", 0)
     if not isinstance(base_seed, int) or isinstance(base_seed, bool) or base_seed < 0:
@@ -399,20 +517,24 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
     x0 = data.get("x0")
     if x0 is not None and not isinstance(x0, list):
         raise SweepConfigError("x0", f"`x0`{_where(src)} must be a list of numbers, got {x0!r}.")
+    rtol = _number("rtol", data.get("rtol", 1e-12), src, positive=True)
     return SweepConfig(
         vehicle=_vehicle(data, base, src),
-        input=_input(data, src),
+        inputs=_inputs(data, src),
         T=T,
         after=after,
         h=hs,
         methods=_methods(data, src),
         noise=_noise(data, src),
         seeds=_seeds(data, src),
-        norms=tuple(dict.fromkeys(norms)),
+        norms=_norms(data, src),
         base_seed=base_seed,
         distribution=distribution,
         buoyancy_pct=None if buoy is None else _number("buoyancy_pct", buoy, src),
         x0=None if x0 is None else tuple(_number("x0", v, src) for v in x0),
         max_cells=max_cells,
+        feedback=_feedback(data, src),
+        rtol=rtol,
+        summaries=_summaries(data, src),
         source=src,
     )

@@ -1,17 +1,20 @@
 """From a sweep grid to cells (one stored row each) and tasks (what a worker runs).
 
-A cell is one (h, noise pair, seed, method, norm). Its key is the SHA-256 of its
-configuration as canonical JSON, which holds the library version and fingerprints of
-the model and the input, so a changed vehicle file, input mapping, norm or library
-version gives new keys instead of mixing with old rows.
+A cell is one (input, h, noise pair, seed, method, norm). Its key is the SHA-256 of
+its configuration as canonical JSON, which holds the library version and
+fingerprints of the model and the input, so a changed vehicle file, input mapping,
+norm or library version gives new keys instead of mixing with old rows.
 
-Cells that share exact samples (same vehicle, input, T, h) form one trajectory; cells
-that share measured data (same noise pair and seed) form one group, whose f values
-are computed once for every Adams-Bashforth order. A task is a chunk of groups of
-one trajectory.
+Cells that share exact samples (same model, input, T, h) form one trajectory; the
+trajectories of one input whose periods are multiples of the smallest one share one
+simulation, at that smallest period, and take every k-th sample of it (exact samples
+are values of one continuous path; every input the plan accepts has its jumps on
+the grid of every h, :meth:`Signal.check_sampling`). Cells that share measured data
+(same noise pair and seed) form one group, whose f values are computed once for
+every Adams-Bashforth order. A task is a chunk of groups of one trajectory.
 
-Planning is lazy: :func:`plan_study` builds the model and the input and checks them,
-but lists no cell. :attr:`Study.n_cells` counts the grid by arithmetic, and
+Planning is lazy: :func:`plan_study` builds the model and the inputs and checks
+them, but lists no cell. :attr:`Study.n_cells` counts the grid by arithmetic, and
 :meth:`Study.iter_groups` yields its groups one at a time, so a grid of any size is
 counted at once and streamed in the memory of one group.
 """
@@ -29,8 +32,10 @@ from typing import Any
 import numpy as np
 
 from ...methods import get_method
+from ...models import ClosedLoop
 from ._config import SweepConfig
 from ._inputs import build_model, make_input
+from ._norms import NormSpec, parse_norm
 
 __all__ = [
     "Cell",
@@ -38,12 +43,13 @@ __all__ = [
     "Group",
     "PlannedGroup",
     "Setup",
+    "SimPlan",
     "Study",
     "cell_order",
     "plan_study",
 ]
 
-SCHEMA = 1  # bump when the meaning of a stored number changes
+SCHEMA = 2  # bump when the meaning of a stored number changes (2: subsampled h)
 
 
 def _canonical(obj: Any) -> str:
@@ -67,7 +73,8 @@ def model_fingerprint(model: Any) -> str:
     rng = np.random.default_rng(20240607)
     x0 = np.asarray(getattr(model, "default_x0", np.zeros(model.nx)), dtype=float)
     x = x0 + rng.uniform(-0.3, 0.3, (16, model.nx))
-    u_scale = 0.5 * float(getattr(model, "n_max", 2.0))
+    plant = getattr(model, "plant", model)  # a closed loop's reference is in plant units
+    u_scale = 0.5 * float(getattr(plant, "n_max", 2.0))
     u = rng.uniform(-u_scale, u_scale, (16, model.nu))
     t = rng.uniform(0.0, 10.0, 16)
     f = np.asarray(model.f(t, x, u), dtype=float)
@@ -85,6 +92,15 @@ def vehicle_label(vehicle: str) -> str:
     """A vehicle as recorded with its cells: a built-in name, or a file's name (its
     content is in the model fingerprint, so moving the file keeps the keys)."""
     return Path(vehicle).name if vehicle.endswith(".toml") else vehicle
+
+
+def model_label(config: SweepConfig) -> str:
+    """The model of a study as recorded with its cells: the vehicle label, and the
+    feedback law that closes the loop around it."""
+    label = vehicle_label(config.vehicle)
+    if config.feedback is not None:
+        label += f" + {config.feedback['law']}"
+    return label
 
 
 @lru_cache(maxsize=256)
@@ -123,6 +139,7 @@ class PlannedGroup:
     """The cells of one (trajectory, noise pair, seed), as planned (client side)."""
 
     traj_key: str
+    sim_key: str
     h: float
     eta_pct: float
     v_pct: float
@@ -139,11 +156,12 @@ class PlannedGroup:
 
 @dataclass(frozen=True)
 class Chunk:
-    """One task: some groups of one trajectory."""
+    """One task: some groups of one trajectory (``sim_key``: its simulation)."""
 
     traj_key: str
     h: float
     groups: tuple[Group, ...]
+    sim_key: str = ""
 
     @property
     def n_cells(self) -> int:
@@ -151,16 +169,51 @@ class Chunk:
 
 
 @dataclass(frozen=True)
+class SimPlan:
+    """One simulation: the exact samples of input ``input_index`` at period ``h``,
+    and the trajectories taken from it, ``members`` = ((traj_key, h, k), ...): every
+    k-th sample (k = 1 for the simulated period itself)."""
+
+    key: str
+    input_index: int
+    h: float
+    members: tuple[tuple[str, float, int], ...]
+
+
+@dataclass(frozen=True)
 class Setup:
-    """What every task needs besides its chunk (pickled to the workers)."""
+    """What every task needs besides its chunk (pickled to the workers).
+
+    ``model`` is what is simulated (a closed loop, if the study closes one); ``plant``
+    is the model the rules that use samples only predict with (the plant of a closed
+    loop, else ``model``); ``signals`` one per input; ``norms`` parsed.
+    """
 
     model: Any
-    signal: Any
+    signals: tuple[Any, ...]
     T: float
     after: float
     base_seed: int
     distribution: str
     x0: tuple[float, ...] | None = None
+    rtol: float = 1e-12
+    summaries: tuple[str, ...] = ()
+    norms: tuple[NormSpec, ...] = ()
+    reference: Any = None
+
+    @property
+    def signal(self) -> Any:
+        """The first input (most studies have one)."""
+        return self.signals[0]
+
+    @property
+    def closed_loop(self) -> bool:
+        """True if the model is a plant closed by a feedback law."""
+        return isinstance(self.model, ClosedLoop)
+
+    @property
+    def plant(self) -> Any:
+        return self.model.plant if self.closed_loop else self.model
 
 
 def _seeds_of(config: SweepConfig, eta: float, v: float) -> Sequence[int]:
@@ -170,14 +223,24 @@ def _seeds_of(config: SweepConfig, eta: float, v: float) -> Sequence[int]:
 
 @dataclass(frozen=True)
 class Study:
-    """A planned sweep: the model and input built once; cells listed on demand."""
+    """A planned sweep: the model and inputs built once; cells listed on demand."""
 
     config: SweepConfig
     setup: Setup
     trajectories: dict[str, dict[str, Any]]  # traj_key -> its configuration
+    sims: dict[str, SimPlan]  # sim_key -> the simulation and its trajectories
     model_fingerprint: str
-    input_fingerprint: str
+    input_fingerprints: tuple[str, ...]
     version: str
+
+    @property
+    def input_fingerprint(self) -> str:
+        """Fingerprint of the first input."""
+        return self.input_fingerprints[0]
+
+    def sim_of(self, traj_key: str) -> SimPlan:
+        """The simulation a trajectory is taken from."""
+        return self.sims[self.trajectories[traj_key]["sim_key"]]
 
     @property
     def groups_per_trajectory(self) -> int:
@@ -198,37 +261,41 @@ class Study:
     def size_text(self) -> str:
         """The factors of :attr:`n_cells`, for messages."""
         cfg = self.config
+        inputs = f"{len(cfg.inputs)} inputs x " if len(cfg.inputs) > 1 else ""
         return (
-            f"{len(cfg.h)} h x {len(cfg.noise)} noise pairs x {len(cfg.seeds)} seeds (1 for "
-            f"the noise-free pair) x {len(cfg.methods)} methods x {len(cfg.norms)} norms"
+            f"{inputs}{len(cfg.h)} h x {len(cfg.noise)} noise pairs x {len(cfg.seeds)} seeds "
+            f"(1 for the noise-free pair) x {len(cfg.methods)} methods x {len(cfg.norms)} norms"
         )
 
     def iter_groups(self) -> Iterator[PlannedGroup]:
-        """Every group with its cells and their keys, trajectory by trajectory; one
-        group in memory at a time."""
+        """Every group with its cells and their keys, trajectory by trajectory (those
+        of one simulation in a row); one group in memory at a time."""
         cfg = self.config
-        for traj_key, tconf in self.trajectories.items():
-            h = float(tconf["h"])
-            for eta, v in cfg.noise:
-                for seed in _seeds_of(cfg, eta, v):
-                    cells = []
-                    for method in cfg.methods:
-                        for norm in cfg.norms:
-                            cconf = {
-                                **tconf,
-                                "after": cfg.after,
-                                "eta_pct": eta,
-                                "v_pct": v,
-                                "seed": seed,
-                                "base_seed": cfg.base_seed,
-                                "distribution": cfg.distribution,
-                                "method": method,
-                                "norm": norm,
-                            }
-                            text = _canonical(cconf)
-                            key = hashlib.sha256(text.encode()).hexdigest()
-                            cells.append(Cell(key, traj_key, h, eta, v, seed, method, norm, text))
-                    yield PlannedGroup(traj_key, h, eta, v, seed, tuple(cells))
+        for sim in self.sims.values():
+            for traj_key, h, _k in sim.members:
+                tconf = {k: v for k, v in self.trajectories[traj_key].items() if k != "sim_key"}
+                for eta, v in cfg.noise:
+                    for seed in _seeds_of(cfg, eta, v):
+                        cells = []
+                        for method in cfg.methods:
+                            for norm in cfg.norms:
+                                cconf = {
+                                    **tconf,
+                                    "after": cfg.after,
+                                    "eta_pct": eta,
+                                    "v_pct": v,
+                                    "seed": seed,
+                                    "base_seed": cfg.base_seed,
+                                    "distribution": cfg.distribution,
+                                    "method": method,
+                                    "norm": norm,
+                                }
+                                text = _canonical(cconf)
+                                key = hashlib.sha256(text.encode()).hexdigest()
+                                cells.append(
+                                    Cell(key, traj_key, h, eta, v, seed, method, norm, text)
+                                )
+                        yield PlannedGroup(traj_key, sim.key, h, eta, v, seed, tuple(cells))
 
     def iter_cells(self) -> Iterator[Cell]:
         """Every cell, lazily (see :meth:`iter_groups`)."""
@@ -253,58 +320,140 @@ class Study:
         out: list[Chunk] = []
         for traj_key, groups in by_traj.items():
             h = self.trajectories[traj_key]["h"]
+            sim_key = self.trajectories[traj_key]["sim_key"]
             glist = [
                 Group(e, v, s, tuple((c.key, c.method, c.norm) for c in cs))
                 for (e, v, s), cs in groups.items()
             ]
             for i in range(0, len(glist), groups_per_chunk):
-                out.append(Chunk(traj_key, h, tuple(glist[i : i + groups_per_chunk])))
+                out.append(Chunk(traj_key, h, tuple(glist[i : i + groups_per_chunk]), sim_key))
         return out
 
 
+def _simulation_periods(hs: Sequence[float], base: float | None) -> list[tuple[float, list]]:
+    """Group the periods: each group is simulated at its smallest period ``p`` and
+    every other period of it is an integer multiple k p. Returns [(p, [(h, k), ...])]."""
+    groups: list[tuple[float, list[tuple[float, int]]]] = []
+    if base is not None:
+        groups.append((base, []))
+    for h in sorted(hs):
+        for p, members in groups:
+            k = round(h / p)
+            if k >= 1 and abs(k * p - h) <= 1e-9 * h:
+                members.append((h, int(k)))
+                break
+        else:
+            if base is not None:
+                raise ValueError(
+                    f"`h` = {h:g} s is not an integer multiple of the period {base:g} s of the "
+                    "given exact samples (`reference`)."
+                )
+            groups.append((h, [(h, 1)]))
+    return [(p, members) for p, members in groups if members]
+
+
+def _trajectory_fingerprint(traj: Any) -> str:
+    return _hash_numbers(np.asarray(traj.x[:: max(1, traj.n_samples // 512)], dtype=float))
+
+
 def plan_study(config: SweepConfig) -> Study:
-    """Build the model and input, check them against the grid, and key the
+    """Build the model and inputs, check them against the grid, and key the
     trajectories; the cells are listed lazily (:meth:`Study.iter_groups`).
 
     Raises
     ------
     ValueError
-        if the vehicle or the input cannot be built (the message names them).
+        if the vehicle or an input cannot be built (the message names them).
     """
     from ..._version import __version__
 
-    try:
-        model = build_model(config.vehicle, config.buoyancy_pct)
-    except (ValueError, FileNotFoundError) as exc:
-        raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
-    try:
-        signal = make_input(config.input, model)
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"`input` {dict(config.input)!r}: {exc}") from exc
+    if config.model is not None:
+        model = config.model
+        if config.feedback is not None:
+            raise ValueError("give a `model` object or a `feedback` law, not both.")
+    else:
+        try:
+            model = build_model(config.vehicle, config.buoyancy_pct, config.feedback)
+        except (ValueError, FileNotFoundError) as exc:
+            raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
+    plant = model.plant if isinstance(model, ClosedLoop) else model
+    if config.signals is not None:
+        if len(config.signals) != len(config.inputs):
+            raise ValueError(f"{len(config.signals)} `signals` for {len(config.inputs)} `inputs`.")
+        signals = tuple(config.signals)
+    else:
+        built = []
+        for spec in config.inputs:
+            try:
+                built.append(make_input(spec, plant))
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"`input` {dict(spec)!r}: {exc}") from exc
+        signals = tuple(built)
+    for signal in signals:
+        if int(signal.nu) != int(model.nu):
+            raise ValueError(
+                f"the input has {signal.nu} channels, the model {model.nu} "
+                f"({', '.join(model.input_names)})."
+            )
     if config.x0 is not None and len(config.x0) != model.nx:
         raise ValueError(
             f"`x0` needs {model.nx} numbers for {config.vehicle!r}, got {len(config.x0)}."
         )
-    for h in config.h:
-        try:
-            signal.check_sampling(h)
-        except ValueError as exc:
-            raise ValueError(f"`input` with `h` = {h:g} s: {exc}") from exc
+    reference = config.reference
+    if reference is not None:
+        if len(signals) != 1:
+            raise ValueError("exact samples (`reference`) go with one input only.")
+        reference = reference.clean if reference.clean is not None else reference
+    for signal, spec in zip(signals, config.inputs, strict=True):
+        for h in config.h:
+            try:
+                signal.check_sampling(h)
+            except ValueError as exc:
+                raise ValueError(f"`input` {dict(spec)!r} with `h` = {h:g} s: {exc}") from exc
     mfp = model_fingerprint(model)
-    ifp = input_fingerprint(signal, config.T)
+    ifps = tuple(input_fingerprint(signal, config.T) for signal in signals)
     common = {
         "schema": SCHEMA,
         "version": __version__,
-        "vehicle": vehicle_label(config.vehicle),
+        "vehicle": model_label(config),
         "buoyancy_pct": config.buoyancy_pct,
         "model_fingerprint": mfp,
-        "input": dict(config.input),
-        "input_fingerprint": ifp,
         "T": config.T,
         "x0": None if config.x0 is None else list(config.x0),
+        "rtol": config.rtol,
     }
-    trajectories = {digest(t): t for t in ({**common, "h": h} for h in config.h)}
+    if reference is not None:
+        common["reference"] = _trajectory_fingerprint(reference)
+    trajectories: dict[str, dict[str, Any]] = {}
+    sims: dict[str, SimPlan] = {}
+    base = None if reference is None else float(reference.h)
+    for i, (spec, ifp) in enumerate(zip(config.inputs, ifps, strict=True)):
+        for p, members in _simulation_periods(config.h, base):
+            sim_key = digest({**common, "input": dict(spec), "input_fingerprint": ifp, "p": p})
+            keyed = []
+            for h, k in members:
+                t = {
+                    **common,
+                    "input": dict(spec),
+                    "input_fingerprint": ifp,
+                    "h": h,
+                    "simulated_h": p,
+                }
+                traj_key = digest(t)
+                trajectories[traj_key] = {**t, "sim_key": sim_key}
+                keyed.append((traj_key, h, k))
+            sims[sim_key] = SimPlan(sim_key, i, p, tuple(keyed))
     setup = Setup(
-        model, signal, config.T, config.after, config.base_seed, config.distribution, config.x0
+        model,
+        signals,
+        config.T,
+        config.after,
+        config.base_seed,
+        config.distribution,
+        config.x0,
+        config.rtol,
+        config.summaries,
+        tuple(parse_norm(n) for n in config.norms),
+        reference,
     )
-    return Study(config, setup, trajectories, mfp, ifp, __version__)
+    return Study(config, setup, trajectories, sims, mfp, ifps, __version__)

@@ -38,10 +38,17 @@ from ._backends import (
 )
 from ._compute import ChunkResult
 from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
-from ._plan import Cell, Chunk, PlannedGroup, Study, cell_order, plan_study, vehicle_label
-from ._store import ResultStore, inspect_store
+from ._plan import Cell, Chunk, PlannedGroup, Study, cell_order, plan_study
+from ._store import Claim, ResultStore, inspect_store
 
-__all__ = ["LEASE_SECONDS", "SweepSummary", "check_grid_size", "run_sweep"]
+__all__ = [
+    "LEASE_SECONDS",
+    "StudyResult",
+    "SweepSummary",
+    "check_grid_size",
+    "run_study",
+    "run_sweep",
+]
 
 #: A run whose heartbeat is older than this (s) is taken for dead and its claims are
 #: taken over; a run refreshes its heartbeat every LEASE_SECONDS / 6.
@@ -120,16 +127,17 @@ class _Tally:
 
 def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> dict[str, Any]:
     cfg = study.config
+    tconf = study.trajectories[cell.traj_key]
     return {
         **result,
         "run_id": run_id,
         "computed_at": time.time(),
         "version": study.version,
-        "vehicle": vehicle_label(cfg.vehicle),
+        "vehicle": tconf["vehicle"],
         "buoyancy_pct": cfg.buoyancy_pct,
-        "input": str(cfg.input["name"]),
+        "input": str(tconf["input"]["name"]),
         "model_fingerprint": study.model_fingerprint,
-        "input_fingerprint": study.input_fingerprint,
+        "input_fingerprint": tconf["input_fingerprint"],
         "T": cfg.T,
         "after": cfg.after,
         "h": cell.h,
@@ -161,6 +169,7 @@ def _traj_row(study: Study, res: ChunkResult, run_id: str) -> dict[str, Any]:
         "error": m.get("error"),
         "warnings": m.get("warnings"),
         "config": json.dumps(study.trajectories[res.traj_key], sort_keys=True),
+        "summary": json.dumps(m.get("summary") or {}, sort_keys=True),
     }
 
 
@@ -217,7 +226,7 @@ def _count_stored(study: Study, path: Path, retry_failed: bool) -> int:
 
 def _claimed_chunks(
     study: Study,
-    st: ResultStore,
+    st: Any,
     run_id: str,
     groups_per_chunk: int,
     retry_failed: bool,
@@ -250,7 +259,7 @@ def _claimed_chunks(
                 groups.append(group)
         first = batch[0]
         batch.clear()
-        return Chunk(first.traj_key, first.h, tuple(groups)) if groups else None
+        return Chunk(first.traj_key, first.h, tuple(groups), first.sim_key) if groups else None
 
     for group in study.iter_groups():
         if batch and batch[0].traj_key != group.traj_key:
@@ -298,9 +307,50 @@ class _Heartbeat:
         self._thread.join()
 
 
+class MemoryStore:
+    """The results of a run kept in this process (a study run without a store file):
+    the part of :class:`ResultStore` that a run uses, with nothing to share."""
+
+    path = None
+
+    def __init__(self) -> None:
+        self.cells: dict[str, dict[str, Any]] = {}
+        self.trajectories: dict[str, dict[str, Any]] = {}
+
+    def start_run(self, *, backend: str, planned: int, skipped: int, config: Any) -> str:
+        return "memory"
+
+    def claim(self, run_id: str, keys: Any, *, retry_failed: bool, lease: float) -> Claim:
+        todo = [k for k in keys if k not in self.cells]
+        return Claim(tuple(todo), len(keys) - len(todo), 0)
+
+    def write(self, cells: Any, trajectories: Any = ()) -> int:
+        for t in trajectories:
+            self.trajectories.setdefault(t["traj_key"], t)
+        for c in cells:
+            self.cells[c["key"]] = c
+        return len(cells)
+
+    def finish_run(self, run_id: str, status: str, computed: int, failed: int, **_: Any) -> None:
+        return None
+
+    def forget_run(self, run_id: str) -> None:
+        return None
+
+    def rows(self, table: str, keys: Any) -> list[dict[str, Any]]:
+        data = self.cells if table == "cells" else self.trajectories
+        return [data[k] for k in keys if k in data]
+
+    def close(self) -> None:
+        return None
+
+    def discard_if_unused(self) -> bool:
+        return False
+
+
 def run_sweep(
-    config: SweepConfig | str | os.PathLike[str],
-    store: ResultStore | str | os.PathLike[str],
+    config: SweepConfig | Study | str | os.PathLike[str],
+    store: ResultStore | MemoryStore | str | os.PathLike[str] | None,
     *,
     workers: int | None = None,
     scheduler: str | None = None,
@@ -316,8 +366,10 @@ def run_sweep(
 
     Parameters
     ----------
-    config : SweepConfig or path of a sweep TOML file
-    store : ResultStore or path of the SQLite file (created when the run starts)
+    config : SweepConfig, a planned Study, or path of a sweep TOML file
+    store : ResultStore, path of the SQLite file (created when the run starts), or None
+        Where the cells go; None keeps them in this process only (nothing to resume;
+        see :func:`run_study`, which returns them).
     workers : int, optional
         Run on this many local worker processes (default: in this process).
     scheduler : str, optional
@@ -369,9 +421,11 @@ def run_sweep(
         raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
     if not lease > 0:
         raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
-    cfg = config if isinstance(config, SweepConfig) else load_config(config)
     t_start = time.perf_counter()
-    study = plan_study(cfg)
+    if isinstance(config, Study):
+        study = config
+    else:
+        study = plan_study(config if isinstance(config, SweepConfig) else load_config(config))
     check_grid_size(study, max_cells)
     if scheduler is not None:
         backend, n_workers = f"dask:{scheduler}", 1
@@ -379,19 +433,26 @@ def run_sweep(
         backend, n_workers = f"processes:{workers}", workers
     else:
         backend, n_workers = "in-process", 1
+    if store is None:
+        store = MemoryStore()
+    opened = isinstance(store, ResultStore | MemoryStore)
     if dry_run:
-        path = store.path if isinstance(store, ResultStore) else Path(store)
-        found = _count_stored(study, path, retry_failed)
+        if isinstance(store, MemoryStore):
+            found = 0
+        else:
+            path = store.path if isinstance(store, ResultStore) else Path(store)
+            found = _count_stored(study, path, retry_failed)
         return SweepSummary(
             "", study.n_cells, found, 0, 0, backend, time.perf_counter() - t_start,
             0.0, 0.0, 0.0, status="dry-run",
         )  # fmt: skip
-    if not isinstance(store, ResultStore):
+    st: ResultStore | MemoryStore
+    if not isinstance(store, ResultStore | MemoryStore):
         _inspect_before_work(Path(store))
     client = connect(scheduler, connect_timeout) if scheduler is not None else None
-    own = not isinstance(store, ResultStore)
+    own = not opened
     try:
-        st = ResultStore(store) if not isinstance(store, ResultStore) else store
+        st = store if isinstance(store, ResultStore | MemoryStore) else ResultStore(store)
     except BaseException:
         if client is not None:
             client.close()
@@ -443,7 +504,7 @@ def _inspect_before_work(path: Path) -> None:
 
 def _run(
     study: Study,
-    st: ResultStore,
+    st: Any,
     backend: str,
     workers: int | None,
     client: Any,
@@ -472,19 +533,18 @@ def _run(
                 tally.store_s, 0.0, 0.0, tally.elsewhere, 0, outcome,
             )  # fmt: skip
         tasks = itertools.chain([first], claimed)
+        setup, sims = study.setup, study.sims
         if client is not None:
-            results = dask_backend(client, study.setup, tasks, run_id, in_flight=2 * _n(client) + 2)
+            results = dask_backend(client, setup, sims, tasks, run_id, in_flight=2 * _n(client) + 2)
         elif workers is not None:
             # Fork the workers before this process starts any thread (heartbeat, bar).
-            h = next(iter(study.trajectories.values()))["h"]
-            pool = start_pool(study.setup, workers, warm_up_h=h)
-            order = [(k, float(t["h"])) for k, t in study.trajectories.items()]
-            results = local_processes(
-                pool, study.setup, tasks, in_flight=2 * workers, trajectories=order
-            )
+            h = next(iter(sims.values())).h
+            pool = start_pool(setup, workers, warm_up_h=h)
+            results = local_processes(pool, setup, sims, tasks, in_flight=2 * workers)
         else:
-            results = in_process(study.setup, tasks)
-        heartbeat = _Heartbeat(st.path, run_id, lease / 6.0)
+            results = in_process(setup, sims, tasks)
+        if st.path is not None:
+            heartbeat = _Heartbeat(st.path, run_id, lease / 6.0)
         if progress:
             from tqdm.auto import tqdm
 
@@ -532,9 +592,7 @@ def _n(client: Any) -> int:
     return max(1, sum(client.nthreads().values()))
 
 
-def _store_result(
-    res: ChunkResult, study: Study, st: ResultStore, run_id: str, tally: _Tally
-) -> None:
+def _store_result(res: ChunkResult, study: Study, st: Any, run_id: str, tally: _Tally) -> None:
     rows = [_cell_row(tally.pending.pop(r["key"]), study, r, run_id) for r in res.rows]
     trajs = [] if res.traj_key in tally.seen_traj else [_traj_row(study, res, run_id)]
     t0 = time.perf_counter()
@@ -547,3 +605,83 @@ def _store_result(
     tally.duplicates += len(rows) - written
     tally.failed += sum(r["status"] != "ok" for r in rows)
     tally.compute_s += sum(float(r["seconds"]) for r in rows)
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """The cells of a study, computed now or found in the store.
+
+    Attributes
+    ----------
+    study : Study
+        The plan.
+    cells : list of dict
+        One row per planned cell, in plan order: the configuration columns of a
+        store row (``h``, ``eta_pct``, ``v_pct``, ``seed``, ``method``, ``norm``,
+        ``traj_key``, ...) and the results ``err_eta``, ``err_v``, ``err_all``,
+        ``status``, ``error``.
+    trajectories : dict
+        traj_key -> its row: ``certificate``, ``n_samples``, ``summary`` (a dict),
+        ``h``, ``status``, ``error``.
+    summary : SweepSummary
+        What this run did (computed, found stored, ...).
+    """
+
+    study: Study
+    cells: list[dict[str, Any]]
+    trajectories: dict[str, dict[str, Any]]
+    summary: SweepSummary
+
+
+def run_study(
+    config: SweepConfig | str | os.PathLike[str],
+    store: str | os.PathLike[str] | None = None,
+    **options: Any,
+) -> StudyResult:
+    """Run a study on the engine and return every cell of it.
+
+    Parameters
+    ----------
+    config : SweepConfig or path of a sweep TOML file
+    store : path of a results store, optional
+        Keep the cells there: a rerun after a crash or a kill computes only the
+        missing ones, and the returned rows include those stored earlier. None keeps
+        them in this process.
+    **options
+        Passed to :func:`run_sweep` (``workers``, ``scheduler``, ``progress``,
+        ``retry_failed``, ``max_cells``, ``groups_per_chunk``).
+
+    Returns
+    -------
+    StudyResult
+
+    Raises
+    ------
+    Whatever :func:`run_sweep` raises; ``ValueError`` if a planned cell is missing
+    afterwards (another run still computing it).
+    """
+    cfg = config if isinstance(config, SweepConfig) else load_config(config)
+    study = plan_study(cfg)
+    mem = MemoryStore() if store is None else None
+    summary = run_sweep(study, mem if mem is not None else store, **options)
+    keys = [c.key for c in study.iter_cells()]
+    if mem is not None:
+        cells = mem.rows("cells", keys)
+        trajs = mem.rows("trajectories", list(study.trajectories))
+    else:
+        with ResultStore(Path(store), readonly=True) as st:  # type: ignore[arg-type]
+            by_key = {r["key"]: r for r in st.rows("cells", keys)}
+            cells = [by_key[k] for k in keys if k in by_key]
+            trajs = st.rows("trajectories", list(study.trajectories))
+    if len(cells) != len(keys):
+        raise ValueError(
+            f"{len(keys) - len(cells)} of the study's {len(keys)} cells are not in the store "
+            "(another run is computing them); run again when it has finished."
+        )
+    traj_rows = {}
+    for t in trajs:
+        row = dict(t)
+        text = row.get("summary")
+        row["summary"] = json.loads(text) if isinstance(text, str) and text else {}
+        traj_rows[row["traj_key"]] = row
+    return StudyResult(study, cells, traj_rows, summary)

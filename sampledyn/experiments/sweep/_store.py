@@ -20,7 +20,8 @@ cells
     ``worker``, ``run_id`` and ``computed_at`` (Unix time).
 trajectories
     One row per exact-sample trajectory: its configuration, certificate (largest
-    scaled per-interval flow error), samples and simulation time.
+    scaled per-interval flow error), samples, simulation time and ``summary`` (JSON:
+    the numbers the study asked for, e.g. the vehicle's motion).
 runs
     One row per ``sweep`` invocation: start/end, status ("running", "complete",
     "interrupted", "failed", or "abandoned" once another run found it dead), backend,
@@ -121,7 +122,9 @@ _TRAJ_COLUMNS = (
     ("error", "TEXT"),
     ("warnings", "TEXT"),
     ("config", "TEXT NOT NULL"),
+    ("summary", "TEXT"),
 )
+_TRAJ_COLUMNS_ADDED = ("summary",)  # added to stores written before (same schema)
 
 _RUN_COLUMNS = (
     ("run_id", "TEXT PRIMARY KEY"),
@@ -370,6 +373,8 @@ class ResultStore:
                     self._init_schema()
                 elif kind == "older":
                     self._upgrade()
+                else:
+                    self._add_columns()
         try:
             self._check_schema()
         except (ValueError, OSError):
@@ -458,6 +463,11 @@ class ResultStore:
                     conn.execute(f'ALTER TABLE runs ADD COLUMN "{name}" {kind}')
             conn.execute(_ddl("claims", _CLAIM_COLUMNS))
             conn.execute("CREATE INDEX IF NOT EXISTS claims_run ON claims (run_id)")
+            have = {r[1] for r in conn.execute("PRAGMA table_info(trajectories)")}
+            for name in _TRAJ_COLUMNS_ADDED:
+                if name not in have:
+                    kind = dict(_TRAJ_COLUMNS)[name]
+                    conn.execute(f'ALTER TABLE trajectories ADD COLUMN "{name}" {kind}')
             conn.execute(
                 "UPDATE meta SET value = ? WHERE name = 'schema_version'", (SCHEMA_VERSION,)
             )
@@ -465,6 +475,17 @@ class ResultStore:
         self._wal()
         # Move the marked header from the log into the file itself.
         conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+
+    def _add_columns(self) -> None:
+        """Add the trajectory columns of this version that the store lacks."""
+        conn = self._conn
+        have = {r[1] for r in conn.execute("PRAGMA table_info(trajectories)")}
+        missing = [n for n in _TRAJ_COLUMNS_ADDED if n not in have]
+        if have and missing:
+            with self._transaction():
+                for name in missing:
+                    kind = dict(_TRAJ_COLUMNS)[name]
+                    conn.execute(f'ALTER TABLE trajectories ADD COLUMN "{name}" {kind}')
 
     def _check_schema(self) -> None:
         with _translated(self.path):
@@ -505,6 +526,23 @@ class ResultStore:
                 marks = ",".join("?" * len(part))
                 q = f"SELECT key, status FROM cells WHERE key IN ({marks})"
                 out.update(dict(self._conn.execute(q, part).fetchall()))
+        return out
+
+    def rows(self, table: str, keys: Iterable[str]) -> list[dict[str, Any]]:
+        """The rows of ``table`` ("cells" or "trajectories") whose key is in ``keys``,
+        as dicts (in no particular order)."""
+        if table not in ("cells", "trajectories"):
+            raise ValueError(f"`table` must be 'cells' or 'trajectories', got {table!r}.")
+        column = "key" if table == "cells" else "traj_key"
+        keys = list(keys)
+        out: list[dict[str, Any]] = []
+        with _translated(self.path):
+            for i in range(0, len(keys), _BATCH):
+                part = keys[i : i + _BATCH]
+                marks = ",".join("?" * len(part))
+                cur = self._conn.execute(f"SELECT * FROM {table} WHERE {column} IN ({marks})", part)
+                names = [d[0] for d in cur.description]
+                out.extend(dict(zip(names, r, strict=True)) for r in cur.fetchall())
         return out
 
     def count(self, table: str = "cells") -> int:

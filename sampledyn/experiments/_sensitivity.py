@@ -1,48 +1,97 @@
-"""The numbers and figures behind ``docs/sensitivity.md``: each claim of the paper's
-section 5 checked on a vehicle (default the BlueROV2 Heavy)."""
+"""The study behind ``docs/sensitivity.md``: each claim of the paper's section 5
+checked on a vehicle, its measured errors computed on the engine.
+
+:func:`sensitivity_study` returns the numbers and the data of each figure;
+:func:`sampledyn.report.sensitivity_report` draws the figures and writes the JSON.
+"""
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..noise import add_noise, noise_amplitudes
-from ._advise import advise
-from ._bound import reference_run
-from ._domain import Domain
-from ._inputs import gentle_input, pitch_input
-from ._jacobians import _jac, jacobian_bounds, spectral_norm
-from ._path import path_prediction
-from ._plots import (
-    plot_boundary_map,
-    plot_crossing,
-    plot_inertia,
-    plot_noise_growth,
-    plot_pitch,
-    plot_tightness,
+from ..noise import noise_amplitudes
+from ..sensitivity import (
+    Domain,
+    ErrorCurves,
+    PitchSensitivity,
+    attitude_jacobian,
+    gentle_input,
+    jacobian_bounds,
+    path_prediction,
+    pitch_guard,
+    pitch_input,
+    pitch_sensitivity,
+    spectral_norm,
 )
-from ._sweeps import inertia_sensitivity, pitch_sensitivity
-from ._validate import monte_carlo_check, raw_errors
+from ._advise import advise
+from ._bounds import (
+    InertiaSensitivity,
+    MonteCarloRow,
+    inertia_sensitivity,
+    measure_noisy,
+    monte_carlo_check,
+    reference_samples,
+)
 
-__all__ = ["sensitivity_report"]
+__all__ = ["SensitivityStudy", "sensitivity_study"]
 
 AB_METHODS = ("E", "AB2", "AB3", "AB4", "AB5", "AB6")
+PITCH_BINS_DEG = np.arange(0.0, 80.0 + 1e-9, 5.0)
+
+
+@dataclass(frozen=True)
+class SensitivityStudy:
+    """Numbers and figure data of :func:`sensitivity_study`.
+
+    Attributes
+    ----------
+    vehicle : str
+        The vehicle's name.
+    numbers : dict
+        Every number quoted in ``docs/sensitivity.md`` (JSON-able).
+    noise_growth : list of dict
+        ``h``, ``s``, ``bound_noise`` (2,), ``measured`` (2,) per AB order and h.
+    tightness : list of MonteCarloRow
+        The AB rules at h = 0.1 s on the gentle input, every noise level.
+    pitch : PitchSensitivity
+    pitch_measured : dict label -> (upper bin edges (deg), largest errors)
+    inertia : list of InertiaSensitivity
+        E and AB4.
+    boundary : tuple (phi (deg), theta (deg), values)
+        ``||M^-1 dg/deta||`` over a (phi, theta) grid.
+    crossing : ErrorCurves
+        Truncation vs noise against h at noise (2 %, 2 %).
+    """
+
+    vehicle: str
+    numbers: dict[str, Any]
+    noise_growth: list[dict[str, Any]]
+    tightness: list[MonteCarloRow]
+    pitch: PitchSensitivity
+    pitch_measured: dict[str, tuple[np.ndarray, np.ndarray]]
+    inertia: list[InertiaSensitivity]
+    boundary: tuple[np.ndarray, np.ndarray, np.ndarray]
+    crossing: ErrorCurves
 
 
 def _ratio(a: float, b: float) -> float:
     return float(a / b) if b > 0 else math.inf
 
 
-def _claim_noise_growth(veh: Any, sig: Any, T: float, seeds: int, out: Path) -> dict[str, Any]:
+def _noise_growth(
+    veh: Any, sig: Any, T: float, seeds: int, workers: int | None
+) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     rows: list[dict[str, Any]] = []
     mc_all: list[Any] = []
     for h in (0.05, 0.1, 0.2, 0.5):
-        mc = monte_carlo_check(veh, AB_METHODS, h, [(2.0, 2.0)], signal=sig, T=T, seeds=seeds)
+        mc = monte_carlo_check(
+            veh, AB_METHODS, h, [(2.0, 2.0)], signal=sig, T=T, seeds=seeds, workers=workers
+        )
         mc_all.extend(mc)
         for s, r in enumerate(mc, start=1):
             rows.append(
@@ -53,12 +102,6 @@ def _claim_noise_growth(veh: Any, sig: Any, T: float, seeds: int, out: Path) -> 
                     "measured": (r.noise_eta, r.noise_v),
                 }
             )
-    plot_noise_growth(
-        rows,
-        out / "sensitivity_noise_growth.png",
-        title="Noise contribution max ||eps~ - eps|| vs s and h, noise (2 %, 2 %), "
-        "BlueROV2 Heavy, gentle input: bound (lines) and measured (dots)",
-    )
 
     def pick(h: float, s: int) -> dict[str, Any]:
         return next(r for r in rows if r["h"] == h and r["s"] == s)
@@ -82,12 +125,12 @@ def _claim_noise_growth(veh: Any, sig: Any, T: float, seeds: int, out: Path) -> 
         _ratio(pick(0.5, 1)["measured"][b], pick(0.05, 1)["measured"][b]) for b in (0, 1)
     ]
     summary["violations"] = int(sum(r.violations for r in mc_all))
-    return summary
+    return summary, rows
 
 
-def _claim_tightness(
-    veh: Any, runs: dict[str, Any], T: float, seeds: int, out: Path
-) -> dict[str, Any]:
+def _tightness(
+    veh: Any, runs: dict[str, Any], T: float, seeds: int, workers: int | None
+) -> tuple[dict[str, Any], list[MonteCarloRow]]:
     levels = [(0.5, 0.0), (0.0, 0.5), (2.0, 2.0), (10.0, 10.0), (20.0, 20.0)]
     methods = (*AB_METHODS, "RK2", "RK4", "T")
     table: list[dict[str, Any]] = []
@@ -97,8 +140,10 @@ def _claim_tightness(
     path_ratio: list[float] = []
     for run, sig in runs.items():
         for h in (0.1, 0.5):
-            mc = monte_carlo_check(veh, methods, h, levels, signal=sig, T=T, seeds=seeds)
-            clean, _ = reference_run(veh, h, sig, None, T)
+            clean, _ = reference_samples(veh, h, sig, None, T)
+            mc = monte_carlo_check(
+                veh, methods, h, levels, reference=clean, signal=sig, seeds=seeds, workers=workers
+            )
             for r in mc:
                 violations += r.violations
                 checked += r.samples * r.seeds
@@ -119,11 +164,6 @@ def _claim_tightness(
                 )
                 if run == "gentle" and h == 0.1 and r.method in AB_METHODS:
                     plot_rows.append(r)
-    plot_tightness(
-        plot_rows,
-        out / "sensitivity_tightness.png",
-        title="Bound (24)-(25) / measured max, BlueROV2 Heavy, gentle input, h = 0.1 s",
-    )
 
     def span(sel: list[dict[str, Any]]) -> list[float]:
         vals = [t for r in sel for t in r["tightness"] if math.isfinite(t)]
@@ -131,7 +171,7 @@ def _claim_tightness(
 
     ab = [r for r in table if r["method"] in AB_METHODS]
     one = [r for r in table if r["method"] not in AB_METHODS]
-    return {
+    numbers = {
         "samples_checked": checked,
         "path_prediction_over_measured": [min(path_ratio), max(path_ratio)],
         "violations": violations,
@@ -144,29 +184,34 @@ def _claim_tightness(
         ),
         "table": table,
     }
+    return numbers, plot_rows
 
 
-def _claim_pitch(veh: Any, T: float, seeds: int, out: Path) -> dict[str, Any]:
+def _pitch(
+    veh: Any, T: float, seeds: int, workers: int | None
+) -> tuple[dict[str, Any], PitchSensitivity, dict[str, tuple[np.ndarray, np.ndarray]]]:
     sig = pitch_input(veh, pitch_frac=0.22)
     h, method = 0.1, "AB4"
-    clean, _ = reference_run(veh, h, sig, None, T)
+    clean, _ = reference_samples(veh, h, sig, None, T)
     dom = Domain.from_trajectory(clean, veh.n_max, sig)
     theta = np.degrees(np.abs(clean.x[:, 4]))
-    # The error of row k predicts sample k from samples k-1 .. k-4: bin it by the
-    # largest |theta| over that window.
-    window = np.max(np.stack([np.roll(theta, j) for j in range(5)]), axis=0)
-    bins = np.arange(0.0, 80.0 + 1e-9, 5.0)
-    worst = np.zeros((2, bins.size - 1))  # all of eta; the Euler angles only
+    bins = PITCH_BINS_DEG
     noise = (0.0, 10.0)
-    for k in range(seeds):
-        noisy = add_noise(clean, *noise, np.random.SeedSequence([7, k]))
-        err = raw_errors(veh, [method], noisy, sig)[method]
-        norms = (np.sqrt((err[:, :6] ** 2).sum(axis=1)), np.sqrt((err[:, 3:6] ** 2).sum(axis=1)))
-        for b in range(bins.size - 1):
-            sel = (window >= bins[b]) & (window < bins[b + 1]) & ~np.isnan(norms[0])
-            if sel.any():
-                for q in (0, 1):
-                    worst[q, b] = max(worst[q, b], float(norms[q][sel].max()))
+    # The error of row k predicts sample k from samples k-1 .. k-4: the mask pitch_deg
+    # bins it by the largest |theta| over that window (5 samples).
+    norms = [
+        f"max{units}@pitch_deg({lo:g},{hi:g},5)"
+        for lo, hi in zip(bins[:-1], bins[1:], strict=True)
+        for units in ("", "[rad]")
+    ]
+    found = measure_noisy(
+        veh, (method,), clean, sig, h, [noise], seeds, 7, norms, workers=workers
+    )  # fmt: skip
+    worst = np.zeros((2, bins.size - 1))  # all of eta; the Euler angles only
+    for b, (lo, hi) in enumerate(zip(bins[:-1], bins[1:], strict=True)):
+        for q, units in enumerate(("", "[rad]")):
+            values = found[(*noise, method, f"max{units}@pitch_deg({lo:g},{hi:g},5)")][:, 0]
+            worst[q, b] = float(np.nanmax(values)) if np.isfinite(values).any() else 0.0
     have = worst[0] > 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -180,20 +225,12 @@ def _claim_pitch(veh: Any, T: float, seeds: int, out: Path) -> dict[str, Any]:
             domain=dom,
         )
     upper = bins[1:][have]
-    plot_pitch(
-        ps,
-        out / "sensitivity_pitch.png",
-        measured={
-            "measured max, all of eta": (upper, worst[0][have]),
-            "measured max, Euler angles only": (upper, worst[1][have]),
-        },
-        title=f"Pitch sensitivity, BlueROV2 Heavy, {method}, h = {h:g} s, noise (0 %, 10 %): "
-        "bound vs measured max per 5-deg bin of |theta|",
-    )
+    measured = {
+        "measured max, all of eta": (upper, worst[0][have]),
+        "measured max, Euler angles only": (upper, worst[1][have]),
+    }
     angles = {int(t): float(ps.J_norm[int(t)]) for t in (0, 20, 40, 60, 70, 80, 85, 89)}
     try:
-        from ._domain import pitch_guard
-
         pitch_guard(veh, 89.9, "theta_deg")
         raised = ""
     except ValueError as exc:
@@ -206,7 +243,7 @@ def _claim_pitch(veh: Any, T: float, seeds: int, out: Path) -> dict[str, Any]:
             return math.nan
         return float(worst[q][sel_hi].max() / base.max())
 
-    return {
+    numbers = {
         "max_abs_theta_deg_of_run": float(theta.max()),
         "J_norm": angles,
         "dJ_norm": {int(t): float(ps.dJ_norm[int(t)]) for t in angles},
@@ -222,9 +259,12 @@ def _claim_pitch(veh: Any, T: float, seeds: int, out: Path) -> dict[str, Any]:
         "angles_growth_70_80_vs_0_10": ratio_at(1, 70.0, 80.0),
         "error_at_89.9_deg": raised,
     }
+    return numbers, ps, measured
 
 
-def _claim_inertia(veh: Any, sig: Any, T: float, seeds: int, out: Path) -> dict[str, Any]:
+def _inertia(
+    veh: Any, sig: Any, T: float, seeds: int, workers: int | None
+) -> tuple[dict[str, Any], list[InertiaSensitivity]]:
     res: dict[str, Any] = {}
     items = []
     for method in ("E", "AB4"):
@@ -236,6 +276,7 @@ def _claim_inertia(veh: Any, sig: Any, T: float, seeds: int, out: Path) -> dict[
             signal=sig,
             T=T,
             seeds=2 * seeds,
+            workers=workers,
         )
         items.append(ins)
         res[method] = {
@@ -250,11 +291,12 @@ def _claim_inertia(veh: Any, sig: Any, T: float, seeds: int, out: Path) -> dict[
             "predicted_v": ins.predicted[:, 1].tolist(),
             "bound_v": ins.bound[:, 1].tolist(),
         }
-    plot_inertia(items, out / "sensitivity_inertia.png")
-    return res
+    return res, items
 
 
-def _claim_boundary(veh: Any, domains: dict[str, Domain], out: Path) -> dict[str, Any]:
+def _boundary(
+    veh: Any, domains: dict[str, Domain]
+) -> tuple[dict[str, Any], tuple[np.ndarray, np.ndarray, np.ndarray]]:
     res: dict[str, Any] = {}
     for name, dom in domains.items():
         with warnings.catch_warnings():
@@ -289,24 +331,20 @@ def _claim_boundary(veh: Any, domains: dict[str, Domain], out: Path) -> dict[str
     P, Th = np.meshgrid(np.radians(phis), np.radians(thetas), indexing="ij")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        j = _jac(veh, P.ravel(), Th.ravel(), np.zeros(6), np.zeros(veh.nu))
+        j = attitude_jacobian(veh, P.ravel(), Th.ravel(), np.zeros(6), np.zeros(veh.nu))
     vals = spectral_norm(j[:, 6:12, 0:6]).reshape(P.shape)
-    plot_boundary_map(
-        phis,
-        thetas,
-        vals,
-        out / "sensitivity_boundary.png",
-        label="||df_v/deta|| = ||M^-1 dg/deta|| (1/s^2)",
-        title="Eq. (20): ||M^-1 dg/deta|| peaks at theta = 0, not on the boundary",
-    )
-    return res
+    return res, (phis, thetas, vals)
 
 
-def _advice(veh: Any, sig: Any, out: Path) -> dict[str, Any]:
+def _advice(veh: Any, sig: Any, workers: int | None) -> tuple[dict[str, Any], ErrorCurves]:
     res: dict[str, Any] = {}
+    crossing = None
     for h in (0.1, 0.5):
         for noise in ((0.0, 0.0), (0.5, 0.5), (2.0, 2.0), (10.0, 10.0), (20.0, 20.0)):
-            a = advise(veh, h, *noise, signal=sig, tolerance=0.2 if noise != (0, 0) else 1e-3)
+            a = advise(
+                veh, h, *noise, signal=sig, tolerance=0.2 if noise != (0, 0) else 1e-3,
+                workers=workers,
+            )  # fmt: skip
             key = f"h={h:g} noise={noise}"
             res[key] = {
                 "ranked": [r.method for r in a.rows],
@@ -325,58 +363,48 @@ def _advice(veh: Any, sig: Any, out: Path) -> dict[str, Any]:
                     for m in c.methods
                 }
             if h == 0.1 and noise == (2.0, 2.0):
-                plot_crossing(
-                    a.curves,
-                    out / "sensitivity_crossing.png",
-                    h_mark=h,
-                    title="BlueROV2 Heavy, noise (2 %, 2 %): truncation (solid) vs noise "
-                    "(dashed) against h; dots where they cross",
-                )
+                crossing = a.curves
                 res["crossings_h=0.1_noise=2,2"] = {
                     m: list(a.curves.crossing(m)) for m in a.curves.methods
                 }
-    return res
+    assert crossing is not None
+    return res, crossing
 
 
-def sensitivity_report(
-    out_dir: str | Path,
-    *,
+def sensitivity_study(
     vehicle: Any = "bluerov2_heavy",
+    *,
     T: float = 100.0,
     seeds: int = 5,
-) -> dict[str, Any]:
-    """Check the paper's section-5 claims on a vehicle; write figures and numbers.
-
-    Writes into ``out_dir``: ``sensitivity_noise_growth.png`` (noise term vs s and h),
-    ``sensitivity_tightness.png`` (bound / measured), ``sensitivity_pitch.png``
-    (J, dJ/deta and position errors vs pitch), ``sensitivity_inertia.png`` (errors vs
-    inertia scale), ``sensitivity_boundary.png`` (where the Jacobian of (20) peaks),
-    ``sensitivity_crossing.png`` (truncation vs noise against h) and
-    ``sensitivity_numbers.json`` (every number quoted in docs/sensitivity.md).
+    workers: int | None = None,
+) -> SensitivityStudy:
+    """Check the paper's section-5 claims on a vehicle (noise growth with s and h,
+    tightness of the bound, pitch, inertia, where the Jacobian maxima sit, advice);
+    every measured error comes from the engine.
 
     Parameters
     ----------
-    out_dir : str or Path
     vehicle : str or Vehicle
-        Built-in name, TOML path or a Vehicle.
+        Built-in name, TOML path or a Vehicle (4 vertical and 4 horizontal thrusters:
+        the runs use :func:`sampledyn.sensitivity.gentle_input` and ``pitch_input``).
     T : float
         Duration of each reference run (s).
     seeds : int
         Monte Carlo noise realisations per cell.
+    workers : int, optional
+        Local worker processes of the engine (default: in this process).
 
     Returns
     -------
-    dict of the numbers (also in the JSON file). Takes a few minutes.
+    SensitivityStudy. Takes a few minutes.
     """
     from ..models import Vehicle, load_vehicle
 
     veh = vehicle if isinstance(vehicle, Vehicle) else load_vehicle(vehicle)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     gentle = gentle_input(veh)
     pitch = pitch_input(veh)
-    g_run, _ = reference_run(veh, 0.1, gentle, None, T)
-    p_run, _ = reference_run(veh, 0.1, pitch, None, T)
+    g_run, _ = reference_samples(veh, 0.1, gentle, None, T)
+    p_run, _ = reference_samples(veh, 0.1, pitch, None, T)
     domains = {
         "gentle_run": Domain.from_trajectory(g_run, veh.n_max, gentle),
         "pitch_run": Domain.from_trajectory(p_run, veh.n_max, pitch),
@@ -385,24 +413,22 @@ def sensitivity_report(
         ),
     }
     numbers: dict[str, Any] = {"vehicle": veh.name, "T": T, "seeds": seeds}
-    numbers["noise_growth"] = _claim_noise_growth(veh, gentle, T, seeds, out)
-    numbers["tightness"] = _claim_tightness(veh, {"gentle": gentle, "pitch": pitch}, T, seeds, out)
-    numbers["pitch"] = _claim_pitch(veh, T, seeds, out)
-    numbers["inertia"] = _claim_inertia(veh, gentle, T, seeds, out)
-    numbers["boundary"] = _claim_boundary(veh, domains, out)
-    numbers["advice"] = _advice(veh, gentle, out)
-
-    def clean(o: Any) -> Any:
-        if isinstance(o, dict):
-            return {str(k): clean(v) for k, v in o.items()}
-        if isinstance(o, list | tuple):
-            return [clean(v) for v in o]
-        if isinstance(o, float | np.floating):
-            return float(o) if math.isfinite(o) else str(float(o))
-        if isinstance(o, np.integer | np.bool_):
-            return o.item()
-        return o
-
-    numbers = clean(numbers)
-    (out / "sensitivity_numbers.json").write_text(json.dumps(numbers, indent=1))
-    return numbers
+    numbers["noise_growth"], growth = _noise_growth(veh, gentle, T, seeds, workers)
+    numbers["tightness"], tight = _tightness(
+        veh, {"gentle": gentle, "pitch": pitch}, T, seeds, workers
+    )
+    numbers["pitch"], ps, pitch_measured = _pitch(veh, T, seeds, workers)
+    numbers["inertia"], inertia = _inertia(veh, gentle, T, seeds, workers)
+    numbers["boundary"], boundary = _boundary(veh, domains)
+    numbers["advice"], crossing = _advice(veh, gentle, workers)
+    return SensitivityStudy(
+        vehicle=veh.name,
+        numbers=numbers,
+        noise_growth=growth,
+        tightness=tight,
+        pitch=ps,
+        pitch_measured=pitch_measured,
+        inertia=inertia,
+        boundary=boundary,
+        crossing=crossing,
+    )

@@ -1,41 +1,67 @@
-"""Which sampled-data model to use: rank the rules for a vehicle, h and noise level.
+"""Which sampled-data model to use: rank the rules for a model, h and noise level.
 
 For each rule the advice gives
 
 * the **predicted** largest disturbed local errors (first order in the noise, along a
-  reference run: :func:`path_prediction`), by which the rules are ranked;
+  reference run: :func:`sampledyn.sensitivity.path_prediction`), by which the rules
+  are ranked;
 * the **guaranteed** bound (24)-(25) over the domain of that run
-  (:func:`disturbed_error_bound`), never below the measured errors but loose for
-  Runge-Kutta and Tustin once h L >~ 1;
+  (:func:`sampledyn.sensitivity.disturbed_error_bound`), never below the measured
+  errors but loose for Runge-Kutta and Tustin once h L >~ 1 (6-DoF vehicles only:
+  the Jacobian maxima (19)-(23) are derived for eqs. (5)-(7));
 * the **measured** largest (and rms) errors on noisy copies of the run, when
-  ``validate``;
+  ``validate``: a Monte Carlo study on the engine;
 * the largest h whose prediction (and whose bound) stays under a tolerance.
+
+Any model whose states split into positions/angles (units m, rad) and rates (m/s,
+rad/s) can be advised (:func:`sampledyn.sensitivity.state_blocks`); a closed loop is
+predicted as the engine predicts it (:func:`sampledyn.experiments.sweep.
+prediction_inputs`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..noise import add_noise, noise_amplitudes
-from ._bound import jacobian_pair, subsample
-from ._curves import ErrorCurves, error_curves, h_grid
-from ._domain import Domain, check_vehicle, pitch_guard
-from ._gains import first_order_gain, supported_method
-from ._inputs import gentle_input
-from ._jacobians import JacobianReport
-from ._validate import measured_errors
+from ..models import ClosedLoop, Vehicle
+from ..noise import noise_amplitudes
+from ..sensitivity import (
+    RANK_BY,
+    Domain,
+    ErrorCurves,
+    JacobianReport,
+    check_tolerance,
+    check_vehicle,
+    domain_maxima,
+    error_curves,
+    exact_reference,
+    first_order_gain,
+    gentle_input,
+    h_grid,
+    largest_h,
+    period_ratio,
+    rank_key,
+    state_blocks,
+    supported_method,
+    usable_periods,
+)
+from ._bounds import measure_noisy, pooled
+from .sweep import exact_samples
 
-__all__ = ["DEFAULT_METHODS", "TIE", "Advice", "AdviceRow", "advise", "largest_h"]
+__all__ = ["DEFAULT_METHODS", "TIE", "Advice", "AdviceRow", "advise", "default_input"]
 
 DEFAULT_METHODS = ("E", "AB2", "AB3", "AB4", "AB5", "AB6", "RK2", "RK3", "RK4", "T")
 TIE = 0.10  # relative margin within which predicted errors count as equal
-_RANK_BY = ("max", "eta", "v")
+NO_BOUND = (
+    "no guaranteed bound for this model: the Jacobian maxima (19)-(23) behind (24)-(25) "
+    "are derived for the 6-DoF vehicle of eqs. (5)-(7) in open loop"
+)
 
 
 @dataclass(frozen=True)
@@ -102,15 +128,19 @@ class Advice:
     rank_by : {"max", "eta", "v"}
     rows : tuple of AdviceRow
         Sorted by predicted error (best first).
-    domain : Domain
-        Box of the reference run (the Jacobian maxima's domain).
-    jacobians : JacobianReport
+    domain : Domain or None
+        Box of the reference run (the Jacobian maxima's domain); None without a bound.
+    jacobians : JacobianReport or None
+        None without a bound.
     curves : ErrorCurves
         Truncation / noise against h for every rule (for :func:`plot_crossing`).
     rank_agreement : float or None
         Kendall tau between the predicted and the measured orders (1 = same order).
     seeds : int
         Monte Carlo repetitions (0 without validation).
+    notes : tuple of str
+        What the table leaves out and why (e.g. no bound for a model that is not a
+        6-DoF vehicle).
     """
 
     vehicle: str
@@ -120,11 +150,12 @@ class Advice:
     tolerance: tuple[float, float] | None
     rank_by: str
     rows: tuple[AdviceRow, ...]
-    domain: Domain
-    jacobians: JacobianReport
+    domain: Domain | None
+    jacobians: JacobianReport | None
     curves: ErrorCurves
     rank_agreement: float | None
     seeds: int
+    notes: tuple[str, ...] = field(default=())
 
     @property
     def best(self) -> str:
@@ -150,7 +181,7 @@ class Advice:
 
         def g(x: float) -> str:
             return (
-                "     -   "
+                "      n/a"
                 if x is None or (isinstance(x, float) and math.isnan(x))
                 else f"{x:9.3g}"
             )
@@ -164,9 +195,10 @@ class Advice:
         lines = [
             f"{self.vehicle}: h = {self.h:g} s, noise (eta, v) = ({self.eta_pct:g} %, "
             f"{self.v_pct:g} %); ranked by predicted {self.rank_by} error",
-            f"domain: {self.domain.describe()}",
-            head,
         ]
+        if self.domain is not None:
+            lines.append(f"domain: {self.domain.describe()}")
+        lines.append(head)
         for r in self.rows:
             line = (
                 f"{r.rank:3d}{'*' if r.near_best else ' '} {r.method:6s} "
@@ -190,77 +222,81 @@ class Advice:
                 f"h_max: largest h (s) whose predicted (h_max) / guaranteed (h_max_g) error "
                 f"stays <= tolerance (eta, v) = {self.tolerance}"
             )
+        lines.extend(f"n/a: {note}" for note in self.notes)
         return "\n".join(lines)
 
 
-def _key(eta: float, v: float, rank_by: str) -> float:
-    if rank_by == "eta":
-        return eta
-    if rank_by == "v":
-        return v
-    return max(eta, v)
+def default_input(model: Any) -> Any:
+    """The default reference input of ``advise``: the Fig. 6 thruster pattern at 20 %
+    (:func:`sampledyn.sensitivity.gentle_input`) of a vehicle (or of the vehicle in a
+    closed loop).
 
-
-def _meets(values: np.ndarray, tol: tuple[float, float], rank_by: str) -> np.ndarray:
-    ok_eta = values[:, 0] <= tol[0]
-    ok_v = values[:, 1] <= tol[1]
-    if rank_by == "eta":
-        return ok_eta
-    if rank_by == "v":
-        return ok_v
-    return ok_eta & ok_v
-
-
-def largest_h(
-    curves: ErrorCurves,
-    method: str,
-    tolerance: float | tuple[float, float],
-    *,
-    rank_by: str = "max",
-    which: str = "predicted",
-) -> float | None:
-    """Largest h of the curves' grid such that the error at every grid h' <= h meets
-    the tolerance (so the answer never grows when the tolerance shrinks).
-
-    Parameters
-    ----------
-    curves : ErrorCurves
-    method : str
-    tolerance : float or (float, float)
-        On the eta and v errors (one number: both).
-    rank_by : {"max", "eta", "v"}
-        Which blocks must meet it: both, or one.
-    which : {"predicted", "bound"}
-
-    Returns
-    -------
-    float (s), or None when even the smallest h fails.
+    Raises
+    ------
+    ValueError
+        if none can be built (not a vehicle, or not 4 vertical and 4 horizontal
+        thrusters), saying to give the input.
     """
-    tol = _tolerance(tolerance)
-    if which not in ("predicted", "bound"):
-        raise ValueError(f"`which` must be 'predicted' or 'bound', got {which!r}.")
-    values = (curves.predicted if which == "predicted" else curves.bound)[method]
-    ok = _meets(values, tol, rank_by)
-    if not ok[0]:
-        return None
-    first_bad = np.flatnonzero(~ok)
-    last = int(first_bad[0]) - 1 if first_bad.size else ok.size - 1
-    return float(curves.h[last])
+    plant = model.plant if isinstance(model, ClosedLoop) else model
+    why = f"{getattr(model, 'name', type(model).__name__)!r} is not a thruster vehicle"
+    if isinstance(plant, Vehicle):
+        try:
+            return gentle_input(plant)
+        except ValueError as exc:
+            why = str(exc)
+    raise ValueError(
+        "`signal`: advise has no default input for this model (the default is the Fig. 6 "
+        f"thruster pattern at 20 %, which needs 4 vertical and 4 horizontal thrusters; "
+        f"{why}); give the input: signal=... (sampledyn advise --input NAME or "
+        "--input '{ name = \"sinusoidal\", ... }')."
+    )
 
 
-def _tolerance(tolerance: Any) -> tuple[float, float]:
-    t = np.atleast_1d(np.asarray(tolerance, dtype=float))
-    if t.size == 1:
-        t = np.repeat(t, 2)
-    if t.shape != (2,) or not np.isfinite(t).all() or (t <= 0).any():
-        raise ValueError(
-            f"`tolerance` must be a positive number or a pair (eta, v), got {tolerance!r}."
+def _curves(
+    model: Any,
+    ms: list[Any],
+    base: Trajectory,
+    ks: list[int],
+    eta_pct: float,
+    v_pct: float,
+    domain: Domain | None,
+    signal: Any,
+    samples: int,
+) -> ErrorCurves:
+    """Error curves of every rule, each predicting as the engine predicts it (a
+    closed loop: rules that use samples only with the plant and the applied input)."""
+    from .sweep import prediction_inputs
+
+    groups: dict[int, tuple[Any, Trajectory, Any, list[Any]]] = {}
+    applied = None
+    if isinstance(model, ClosedLoop):
+        u = model.applied_input(base.t, base.x, base.u)
+        applied = base.replace(u=u, input_names=tuple(model.plant.input_names))
+    for m in ms:
+        use_model, data, sig = prediction_inputs(
+            model, m, applied if applied is not None else base, base, signal
         )
-    return float(t[0]), float(t[1])
+        groups.setdefault(id(use_model), (use_model, data, sig, []))[3].append(m)
+    parts = [
+        error_curves(gm, gms, data, ks, eta_pct, v_pct, domain, sig, samples=samples)
+        for gm, data, sig, gms in groups.values()
+    ]
+    if len(parts) == 1:
+        return parts[0]
+    merged: dict[str, dict[str, np.ndarray]] = {}
+    for key in ("truncation", "predicted_noise", "predicted", "bound_noise", "bound"):
+        merged[key] = {n: getattr(p, key)[n] for p in parts for n in p.methods}
+    return ErrorCurves(
+        h=parts[0].h,
+        eta_pct=float(eta_pct),
+        v_pct=float(v_pct),
+        methods=tuple(m.name for m in ms),
+        **merged,
+    )
 
 
 def advise(
-    vehicle: Any,
+    model: Any,
     h: float,
     eta_pct: float,
     v_pct: float,
@@ -278,13 +314,16 @@ def advise(
     rank_by: str = "max",
     h_max_search: float | None = None,
     samples: int = 5000,
+    workers: int | None = None,
 ) -> Advice:
     """Rank sampled-data rules by their predicted one-step error on noisy data.
 
     Parameters
     ----------
-    vehicle : Vehicle
-        The 6-DoF vehicle (no thruster lag).
+    model : Model
+        A 6-DoF vehicle (no thruster lag; the guaranteed bound is computed for it), or
+        any model whose states are positions/angles (units m, rad) and rates (m/s,
+        rad/s), e.g. a :class:`sampledyn.models.SymbolicModel` or a closed loop.
     h : float
         Sampling period (s).
     eta_pct, v_pct : float
@@ -292,18 +331,20 @@ def advise(
     methods : sequence of str
         Rules to compare ("E", "AB<s>", "RK<s>", "T").
     domain : Domain, optional
-        Box for the guaranteed bound; default: the box of the reference run.
+        Box for the guaranteed bound (vehicles); default: the box of the reference run.
     tolerance : float or (float, float), optional
         Error tolerance on eta (m, rad) and v (m/s, rad/s); gives ``h_max`` per rule.
     validate : bool
-        Also measure the errors on ``seeds`` noisy copies of the reference run.
+        Also measure the errors on ``seeds`` noisy copies of the reference run (a
+        Monte Carlo study on the engine).
     signal : Signal, optional
-        Thruster input of the reference run; default :func:`gentle_input`.
+        Input of the reference run (a closed loop: its reference). Default
+        :func:`default_input` (the Fig. 6 pattern at 20 %, for a thruster vehicle).
     reference : Trajectory, optional
         Exact samples at a period dividing h (instead of simulating).
     T : float
         Duration of the simulated reference run (s).
-    x0 : ndarray, shape (12,), optional
+    x0 : ndarray, shape (nx,), optional
         Its initial state.
     seeds, base_seed : int
         Monte Carlo repetitions, seeded ``SeedSequence([base_seed, k])``.
@@ -313,14 +354,28 @@ def advise(
         Largest h (s) tried for ``h_max`` (default max(2 s, 4 h)).
     samples : int
         Random samples of the Jacobian check.
+    workers : int, optional
+        Local worker processes of the Monte Carlo (default: in this process).
 
     Returns
     -------
     Advice
+
+    Raises
+    ------
+    ValueError
+        for a model whose states do not split into positions/angles and rates, a
+        model without a default input and no ``signal``, and bad arguments (named).
+    TypeError
+        for a ``reference`` or ``domain`` of the wrong type.
     """
-    check_vehicle(vehicle)
-    if rank_by not in _RANK_BY:
-        raise ValueError(f"`rank_by` must be one of {_RANK_BY}, got {rank_by!r}.")
+    vehicle = isinstance(model, Vehicle)
+    if vehicle:
+        check_vehicle(model, "model")
+    else:
+        state_blocks(model.state_units, "model")
+    if rank_by not in RANK_BY:
+        raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
     if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
         raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
@@ -328,64 +383,52 @@ def advise(
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")
-    tol = None if tolerance is None else _tolerance(tolerance)
-    amp = noise_amplitudes(vehicle.state_units, eta_pct, v_pct)
+    tol = None if tolerance is None else check_tolerance(tolerance)
+    amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
+    if domain is not None and not vehicle:
+        raise ValueError("`domain` bounds the Jacobians of a 6-DoF vehicle; this model is not.")
 
     if reference is None:
-        from ..simulate import simulate
-
-        signal = gentle_input(vehicle) if signal is None else signal
+        signal = default_input(model) if signal is None else signal
         h0, ks = h_grid(h, h_max=h_max_search)
         n_int = max(1, round(T / h))
-        base = simulate(vehicle, signal, T=n_int * h, h=h0, x0=x0)
+        base = exact_samples(model, signal, n_int * h, h0, x0)
     else:
-        if not isinstance(reference, Trajectory):
-            raise TypeError(f"`reference` must be a Trajectory, got {type(reference).__name__}.")
-        base = reference.clean if reference.clean is not None else reference
-        m_ratio = round(h / base.h)
-        if m_ratio < 1 or abs(m_ratio * base.h - h) > 1e-9 * h:
-            raise ValueError(
-                f"`h` = {h} s must be an integer multiple of the reference period {base.h} s."
-            )
+        base = exact_reference(reference)
+        m_ratio = period_ratio(h, base.h)
         h0 = base.h
         top = max(2.0, 4.0 * h) if h_max_search is None else h_max_search
         ks = sorted(
             {int(round(k)) for k in np.geomspace(1, max(m_ratio, top / h0), 25)} | {m_ratio}
         )
-    k_h = int(round(h / h0))
-    if domain is None:
-        domain = Domain.from_trajectory(base, vehicle.n_max, signal)
-    elif not isinstance(domain, Domain):
-        raise TypeError(f"`domain` must be a sensitivity.Domain, got {type(domain).__name__}.")
-    pitch_guard(vehicle, domain.theta_max_deg, "domain.theta_max_deg", stacklevel=3)
-    jac, _ = jacobian_pair(vehicle, domain, amp, samples)
-    curves = error_curves(vehicle, ms, base, ks, eta_pct, v_pct, domain, signal, samples=samples)
+    jac = None
+    notes: list[str] = []
+    if vehicle:
+        domain, jac, _ = domain_maxima(model, base, signal, domain, amp, samples)
+    else:
+        notes.append(f"bound, h_max_g: {NO_BOUND}.")
+    curves = _curves(
+        model, ms, base, usable_periods(ms, base, ks), eta_pct, v_pct, domain, signal, samples
+    )
     at = int(np.argmin(np.abs(curves.h - h)))
     if abs(curves.h[at] - h) > 1e-9 * h:
         raise ValueError(f"the reference run is too short for h = {h} s; raise `T`.")
 
     measured: dict[str, tuple[float, float, float, float]] = {}
     if validate:
-        clean = subsample(base, k_h)
-        runs: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {m.name: [] for m in ms}
-        for k in range(seeds):
-            noisy = add_noise(clean, eta_pct, v_pct, np.random.SeedSequence([base_seed, k]))
-            for name, errs in measured_errors(vehicle, ms, noisy, signal).items():
-                runs[name].append(errs)
-        for name, lst in runs.items():
-            e_eta = np.concatenate([r[0] for r in lst])
-            e_v = np.concatenate([r[1] for r in lst])
-            keep = ~(np.isnan(e_eta) | np.isnan(e_v))
-            e_eta, e_v = e_eta[keep], e_v[keep]
-            measured[name] = (
-                float(e_eta.max()),
-                float(e_v.max()),
-                float(np.sqrt(np.mean(e_eta**2))),
-                float(np.sqrt(np.mean(e_v**2))),
-            )
+        found = measure_noisy(
+            model, [m.name for m in ms], base, signal, h, [(eta_pct, v_pct)], seeds,
+            base_seed, ("max", "rms"), workers=workers,
+        )  # fmt: skip
+        for m in ms:
+            per = {n: found[(float(eta_pct), float(v_pct), m.name, n)] for n in ("max", "rms")}
+            worst, rms = pooled(per)
+            measured[m.name] = (float(worst[0]), float(worst[1]), float(rms[0]), float(rms[1]))
+    else:
+        notes.append("meas: no Monte Carlo (validate=False).")
 
     pred_key = {
-        m.name: _key(
+        m.name: rank_key(
             float(curves.predicted[m.name][at, 0]), float(curves.predicted[m.name][at, 1]), rank_by
         )
         for m in ms
@@ -394,7 +437,7 @@ def advise(
     meas_order: list[str] = []
     tau = None
     if validate:
-        meas_key = {n: _key(measured[n][0], measured[n][1], rank_by) for n in measured}
+        meas_key = {n: rank_key(measured[n][0], measured[n][1], rank_by) for n in measured}
         meas_order = sorted(meas_key, key=lambda n: meas_key[n])
         if len(ms) > 1:
             from scipy.stats import kendalltau
@@ -425,7 +468,7 @@ def advise(
                 measured_rms_v=rv,
                 h_max=None if tol is None else largest_h(curves, name, tol, rank_by=rank_by),
                 h_max_guaranteed=None
-                if tol is None
+                if tol is None or not vehicle
                 else largest_h(curves, name, tol, rank_by=rank_by, which="bound"),
                 rank=rank,
                 measured_rank=meas_order.index(name) + 1 if validate else None,
@@ -433,7 +476,7 @@ def advise(
             )
         )
     return Advice(
-        vehicle=getattr(vehicle, "name", "vehicle"),
+        vehicle=getattr(model, "name", type(model).__name__),
         h=float(h),
         eta_pct=float(eta_pct),
         v_pct=float(v_pct),
@@ -445,4 +488,5 @@ def advise(
         curves=curves,
         rank_agreement=tau,
         seeds=seeds if validate else 0,
+        notes=tuple(notes),
     )

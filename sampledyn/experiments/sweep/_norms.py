@@ -1,0 +1,399 @@
+"""What a cell measures: one norm of the local errors of one rule on one measured
+trajectory, over some of the state components and some of the samples.
+
+A norm is written as a string::
+
+    [noise:]KIND[(ARG, ...)][[UNIT, ...]][@MASK[(ARG, ...)]]
+
+* ``KIND``: a norm of :data:`sampledyn.errors.ERROR_NORMS` (``rms``, ``max``,
+  ``l2_over_n``, ``l2``, ``mean``) of the per-sample Euclidean error norm, or
+  ``exceeds(A, B)``: the number of samples whose position/angle error exceeds ``A``
+  or whose rate error exceeds ``B`` (used to check a bound sample by sample).
+* ``noise:``: the norm of the noise contribution, the disturbed local error minus
+  the undisturbed one at the same sample (the same rule on the exact samples).
+* ``[UNIT, ...]``: only the state components in these units (e.g. ``[rad]`` for the
+  Euler angles of a vehicle).
+* ``@MASK``: only the samples the mask keeps (:func:`available_masks`):
+  ``away_from_jumps`` (the prediction's history holds no input jump),
+  ``smooth`` (also no zero crossing of a state inside ``|.|``), ``pitch_deg(LO, HI)``
+  (the largest |theta| over the prediction window lies in [LO, HI) deg).
+
+Every cell stores three numbers of its norm: over the position/angle components
+(eta: units m and rad), over the rate components (v: m/s and rad/s), and over all
+components (:func:`component_groups`). Samples before ``after`` (s) and samples
+without a prediction never count.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...errors import ERROR_NORMS, error_norms
+from ...noise import NOISE_REFERENCE
+
+__all__ = [
+    "SMOOTH_HISTORY",
+    "NormSpec",
+    "available_masks",
+    "away_from_jumps",
+    "away_from_kinks",
+    "component_groups",
+    "measure",
+    "parse_norm",
+]
+
+#: Samples counted as "away from input jumps" have no jump in the last 7 samples,
+#: which covers the history of AB6 plus the interval being predicted.
+SMOOTH_HISTORY = 7
+
+_PARTS = ("disturbed", "noise")
+_COUNT_KINDS = {"exceeds": 2}  # kinds this module counts itself, with their arity
+
+_SPEC = re.compile(
+    r"^(?:(?P<part>noise):)?"
+    r"(?P<kind>[a-z_0-9]+)(?:\((?P<kargs>[^()]*)\))?"
+    r"(?:\[(?P<units>[^\[\]]*)\])?"
+    r"(?:@(?P<mask>[a-z_]+)(?:\((?P<margs>[^()]*)\))?)?$"
+)
+
+
+def away_from_jumps(u: np.ndarray, history: int) -> np.ndarray:
+    """True at samples k whose prediction uses no input jump: u[k-history-1..k-1] constant.
+
+    Parameters
+    ----------
+    u : ndarray, shape (N, nu)
+    history : int
+        The longest history among the methods compared (s of the highest AB_s).
+    """
+    n = u.shape[0]
+    jump = np.zeros(n, dtype=bool)
+    jump[1:] = (np.diff(u, axis=0) != 0).any(axis=1)  # u[k] differs from u[k-1]
+    ok = np.zeros(n, dtype=bool)
+    # k is fine when no jump happens at k-history..k-1.
+    csum = np.concatenate([[0], np.cumsum(jump)])
+    k = np.arange(n)
+    lo = np.clip(k - history, 0, n)
+    ok[:] = (csum[k] - csum[lo]) == 0
+    ok[: history + 1] = False
+    return ok
+
+
+def away_from_kinks(x: np.ndarray, kink_states: tuple[int, ...], history: int) -> np.ndarray:
+    """True at samples k with no zero crossing of a kink state in samples k-history..k.
+
+    Where a state inside ``|.|`` (e.g. y in y|y|) crosses zero, f is not smooth and
+    every method of order > 2 drops to about order 2 there.
+    """
+    n = x.shape[0]
+    cross = np.zeros(n, dtype=bool)
+    for k in kink_states:
+        sign = np.sign(x[:, k])
+        cross[1:] |= sign[1:] != sign[:-1]
+    window = np.convolve(cross.astype(np.int64), np.ones(history + 1, dtype=np.int64))[:n]
+    return window == 0
+
+
+def _mask_jumps(clean: Any, model: Any, history: float = SMOOTH_HISTORY) -> np.ndarray:
+    return away_from_jumps(clean.u, int(history))
+
+
+def _mask_smooth(clean: Any, model: Any, history: float = SMOOTH_HISTORY) -> np.ndarray:
+    kinks = tuple(getattr(model, "kink_states", ()) or ())
+    return away_from_jumps(clean.u, int(history)) & away_from_kinks(clean.x, kinks, int(history))
+
+
+def _mask_pitch(clean: Any, model: Any, lo: float, hi: float, window: float = 5) -> np.ndarray:
+    names = tuple(getattr(clean, "state_names", ()) or getattr(model, "state_names", ()))
+    if "theta" not in names:
+        raise ValueError(
+            f"the mask pitch_deg needs a state named 'theta' (pitch, rad); the model's states "
+            f"are {', '.join(names) or 'unnamed'}."
+        )
+    theta = np.degrees(np.abs(clean.x[:, names.index("theta")]))
+    w = int(window)
+    # Row k predicts sample k from samples k-1 .. k-w+1: its largest |theta| over them.
+    worst = np.max(np.stack([np.roll(theta, j) for j in range(w)]), axis=0)
+    return (worst >= lo) & (worst < hi)
+
+
+@dataclass(frozen=True)
+class _Mask:
+    function: Callable[..., np.ndarray]
+    arity: tuple[int, int]  # least and most arguments
+    description: str
+
+
+_MASKS: dict[str, _Mask] = {
+    "away_from_jumps": _Mask(
+        _mask_jumps,
+        (0, 1),
+        f"samples whose history (the last HISTORY = {SMOOTH_HISTORY} samples) holds no input jump",
+    ),
+    "smooth": _Mask(
+        _mask_smooth,
+        (0, 1),
+        "samples away from input jumps and from zero crossings of the states inside |.| "
+        f"(last HISTORY = {SMOOTH_HISTORY} samples)",
+    ),
+    "pitch_deg": _Mask(
+        _mask_pitch,
+        (2, 3),
+        "samples whose largest |theta| over the last WINDOW = 5 samples is in [LO, HI) deg",
+    ),
+}
+
+
+def available_masks() -> dict[str, str]:
+    """Mask name -> what it keeps."""
+    return {name: m.description for name, m in _MASKS.items()}
+
+
+def _numbers(text: str | None, where: str) -> tuple[float, ...]:
+    if text is None or not text.strip():
+        return ()
+    out = []
+    for part in text.split(","):
+        try:
+            value = float(part)
+        except ValueError:
+            raise ValueError(f"{where}: {part.strip()!r} is not a number.") from None
+        if not math.isfinite(value):
+            raise ValueError(f"{where}: {part.strip()!r} is not finite.")
+        out.append(value)
+    return tuple(out)
+
+
+def _fmt(values: Sequence[float]) -> str:
+    return ",".join(f"{v:g}" if float(v).is_integer() else repr(float(v)) for v in values)
+
+
+@dataclass(frozen=True)
+class NormSpec:
+    """A parsed norm (see the module docstring); :attr:`text` is its canonical form."""
+
+    kind: str
+    part: str = "disturbed"
+    kind_args: tuple[float, ...] = ()
+    units: tuple[str, ...] | None = None
+    mask: str | None = None
+    mask_args: tuple[float, ...] = ()
+
+    @property
+    def text(self) -> str:
+        out = "noise:" if self.part == "noise" else ""
+        out += self.kind + (f"({_fmt(self.kind_args)})" if self.kind_args else "")
+        if self.units is not None:
+            out += f"[{','.join(self.units)}]"
+        if self.mask is not None:
+            out += "@" + self.mask + (f"({_fmt(self.mask_args)})" if self.mask_args else "")
+        return out
+
+    @property
+    def counts(self) -> bool:
+        """True for norms that count samples (``exceeds``) instead of measuring them."""
+        return self.kind in _COUNT_KINDS
+
+    def mask_of(self, clean: Any, model: Any) -> np.ndarray | None:
+        """The samples this norm keeps, shape (N,), or None for all."""
+        if self.mask is None:
+            return None
+        return np.asarray(_MASKS[self.mask].function(clean, model, *self.mask_args), dtype=bool)
+
+
+def parse_norm(text: Any) -> NormSpec:
+    """A :class:`NormSpec` from its string.
+
+    Raises
+    ------
+    ValueError
+        naming what is wrong and the valid choices.
+    """
+    if isinstance(text, NormSpec):
+        return text
+    if not isinstance(text, str):
+        raise ValueError(f"a norm must be a string such as 'rms', got {text!r}.")
+    m = _SPEC.match(text.replace(" ", ""))
+    valid = ", ".join((*ERROR_NORMS, *(f"{k}(A,B)" for k in _COUNT_KINDS)))
+    if m is None:
+        raise ValueError(
+            f"norm {text!r} is not of the form [noise:]KIND[(ARGS)][[UNITS]][@MASK[(ARGS)]], "
+            f"e.g. 'rms', 'max[rad]', 'rms@away_from_jumps'; kinds: {valid}."
+        )
+    kind = m["kind"]
+    kargs = _numbers(m["kargs"], f"norm {text!r}")
+    if kind in ERROR_NORMS:
+        if m["kargs"] is not None:
+            raise ValueError(f"norm {text!r}: {kind!r} takes no arguments.")
+    elif kind in _COUNT_KINDS:
+        if len(kargs) != _COUNT_KINDS[kind]:
+            raise ValueError(
+                f"norm {text!r}: {kind!r} takes {_COUNT_KINDS[kind]} numbers, e.g. "
+                f"'{kind}(0.1,0.2)' (eta limit, v limit)."
+            )
+    else:
+        raise ValueError(f"norm {text!r}: unknown kind {kind!r}; valid: {valid}.")
+    units = None
+    if m["units"] is not None:
+        units = tuple(u.strip() for u in m["units"].split(",") if u.strip())
+        bad = [u for u in units if u not in NOISE_REFERENCE]
+        if not units or bad:
+            raise ValueError(
+                f"norm {text!r}: units must be some of {', '.join(NOISE_REFERENCE)}, got "
+                f"{m['units']!r}."
+            )
+    mask = m["mask"]
+    margs = _numbers(m["margs"], f"norm {text!r}")
+    if mask is not None:
+        if mask not in _MASKS:
+            raise ValueError(f"norm {text!r}: unknown mask {mask!r}; valid: {', '.join(_MASKS)}.")
+        lo, hi = _MASKS[mask].arity
+        if not lo <= len(margs) <= hi:
+            raise ValueError(
+                f"norm {text!r}: mask {mask!r} takes {lo} to {hi} numbers, got {len(margs)}."
+            )
+    part = "noise" if m["part"] else "disturbed"
+    return NormSpec(kind, part, kargs, units, mask, margs)
+
+
+def component_groups(state_units: Sequence[str]) -> dict[str, Any]:
+    """Index sets of the stored groups: "eta" (units m, rad), "v" (m/s, rad/s) and
+    "all"; a contiguous set as a slice (numbers as with a slice of the array)."""
+    kind = np.array([NOISE_REFERENCE.get(u, ("", 0.0))[0] for u in state_units])
+    groups = {
+        "eta": np.flatnonzero(kind == "eta"),
+        "v": np.flatnonzero(kind == "v"),
+        "all": np.arange(len(state_units)),
+    }
+    return {name: _as_slice(idx) for name, idx in groups.items()}
+
+
+def _as_slice(idx: np.ndarray) -> Any:
+    if idx.size and (idx.size == 1 or (np.diff(idx) == 1).all()):
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return idx
+
+
+def _restrict(comps: Any, keep: np.ndarray, n: int) -> Any:
+    idx = np.arange(n)[comps] if isinstance(comps, slice) else comps
+    return _as_slice(idx[keep[idx]])
+
+
+def _empty(comps: Any) -> bool:
+    return isinstance(comps, np.ndarray) and comps.size == 0
+
+
+def _counts(
+    err: np.ndarray, t: np.ndarray, spec: NormSpec, after: float, groups: Mapping[str, Any],
+    where: np.ndarray | None,
+) -> dict[str, float]:  # fmt: skip
+    keep = np.ones(err.shape[0], dtype=bool) if where is None else where.copy()
+    keep &= t >= after - 1e-9 * max(1.0, abs(after))
+    over = {}
+    for name, limit in zip(("eta", "v"), spec.kind_args, strict=True):
+        comps = groups[name]
+        if _empty(comps):
+            over[name] = np.zeros(err.shape[0], dtype=bool)
+            continue
+        e = err[:, comps]
+        sq = np.einsum("ij,ij->i", e, e)
+        keep &= ~np.isnan(sq)
+        over[name] = np.sqrt(np.where(np.isnan(sq), 0.0, sq)) > limit
+    if not keep.any():
+        raise ValueError(f"no samples with a prediction at t >= after={after}.")
+    return {
+        "eta": float((over["eta"] & keep).sum()),
+        "v": float((over["v"] & keep).sum()),
+        "all": float(((over["eta"] | over["v"]) & keep).sum()),
+    }
+
+
+def measure(
+    specs: Sequence[NormSpec],
+    err: np.ndarray,
+    t: np.ndarray,
+    after: float,
+    state_units: Sequence[str],
+    masks: Mapping[NormSpec, np.ndarray | None],
+    noise_err: Callable[[], np.ndarray] | None = None,
+) -> dict[NormSpec, tuple[dict[str, float], str]]:
+    """The numbers of every norm in ``specs`` for one rule on one measured trajectory.
+
+    Parameters
+    ----------
+    specs : sequence of NormSpec
+    err : ndarray, shape (N, nx)
+        Disturbed local errors (NaN rows: no prediction).
+    t : ndarray, shape (N,)
+        Sample times (s).
+    after : float
+        Samples with t >= after count (s).
+    state_units : sequence of str
+        Units of the state components (they define the eta/v groups).
+    masks : mapping NormSpec -> bool array (N,) or None
+        Each spec's samples (:meth:`NormSpec.mask_of` on the exact samples).
+    noise_err : callable, optional
+        Returns the noise contributions (disturbed minus undisturbed local errors);
+        called only if a ``noise:`` norm is asked for.
+
+    Returns
+    -------
+    dict spec -> ({"eta": value, "v": value, "all": value}, error message or "").
+    A norm that has no sample to measure gets NaN and the reason.
+    """
+    groups = component_groups(state_units)
+    n = len(state_units)
+    out: dict[NormSpec, tuple[dict[str, float], str]] = {}
+    # Norms over the same data, components and samples share one pass.
+    batches: dict[tuple[Any, ...], list[NormSpec]] = {}
+    for spec in specs:
+        key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args)
+        batches.setdefault(key, []).append(spec)
+    noise_values: np.ndarray | None = None
+    for batch in batches.values():
+        first = batch[0]
+        if first.part == "noise":
+            if noise_values is None:
+                if noise_err is None:
+                    raise ValueError("a noise: norm needs the undisturbed local errors.")
+                noise_values = noise_err()
+            data = noise_values
+        else:
+            data = err
+        use = groups
+        if first.units is not None:
+            keep = np.isin(np.asarray(state_units), first.units)
+            use = {name: _restrict(comps, keep, n) for name, comps in groups.items()}
+        where = masks.get(first)
+        try:
+            if first.counts:
+                values = _counts(data, t, first, after, use, where)
+                out[first] = (values, "")
+                continue
+            kinds = tuple(dict.fromkeys(s.kind for s in batch))
+            per_group = {
+                name: (
+                    dict.fromkeys(kinds, math.nan)
+                    if _empty(comps)
+                    else error_norms(data, t, kinds, after, comps, where)
+                )
+                for name, comps in use.items()
+            }
+            for spec in batch:
+                out[spec] = ({name: v[spec.kind] for name, v in per_group.items()}, "")
+        except ValueError as exc:
+            reason = str(exc)
+            if first.mask is not None:
+                reason = (
+                    f"no sample at t >= after={after:g} s is kept by the mask {first.mask} "
+                    f"({_MASKS[first.mask].description})"
+                )
+            for spec in batch:
+                out[spec] = (dict.fromkeys(groups, math.nan), reason)
+    return out
