@@ -46,7 +46,9 @@ def fig7_table(rexrov_csv: Path, bluerov_csv: Path) -> None:
     for h in (0.1, 0.5):
         heavy, light = velocity_ratios(rexrov_csv, h), velocity_ratios(bluerov_csv, h)
         print(f"\n(a) Fig. 7 runs, h = {h} s: AB4/AB1, l2/N velocity error and noise excess")
-        print("noise (eta %, v %)  velocity RexROV  velocity BlueROV2  excess RexROV  excess BlueROV2")
+        print(
+            "noise (eta %, v %)  velocity RexROV  velocity BlueROV2  excess RexROV  excess BlueROV2"
+        )
         for pair in PAIRS:
             (vh, xh), (vl, xl) = heavy[pair], light[pair]
             print(f"{str(pair):18s}  {vh:15.2f}  {vl:17.2f}  {xh:13.2f}  {xl:15.2f}")
