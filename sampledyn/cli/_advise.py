@@ -173,8 +173,8 @@ def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--methods",
         default=None,
-        help="comma-separated rules (default: sampledyn.sensitivity.DEFAULT_METHODS, "
-        "the rules the bounds cover)",
+        help="comma-separated rules (default: sampledyn.experiments.DEFAULT_METHODS, "
+        "E, AB2-AB6, RK2-RK4 and T: the rules the bounds cover)",
     )
     p.add_argument("--T", type=float, default=60.0, help="reference run length in s (default 60)")
     p.add_argument("--seeds", type=int, default=3, help="Monte Carlo noise seeds (default 3)")

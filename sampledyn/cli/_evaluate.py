@@ -142,7 +142,8 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     ev = sub.add_parser(
         "evaluate",
         parents=parents,
-        help="local errors of sampled-data models on a real log (CSV or Parquet)",
+        help="local errors of sampled-data models on a real log (CSV, Parquet, ROS bag, "
+        "ArduSub DataFlash)",
         description=(
             "Read a vehicle log (columns t, the 12 states and the thruster rpm, units in "
             "the header like x[m], phi[deg], n1[rpm], or a --mapping file), validate it "
