@@ -46,3 +46,19 @@ def test_bad_argument_exits_with_message(capsys):
         main(["reproduce", "fig2", "--h", "-1", "--no-progress", "--T", "1", "--after", "0.5"])
     assert exc.value.code == EXIT_BAD_VALUE
     assert "`h`" in capsys.readouterr().err
+
+
+def test_estimated_rules_are_known_to_a_fresh_command():
+    """The estimation layer registers Ee/ABe<s>; a command run in a new process (no
+    other import first) must know them."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    log = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
+    cmd = [sys.executable, "-m", "sampledyn.cli", "evaluate", "--data", str(log),
+           "--vehicle", "bluerov2_heavy", "--methods", "E", "--estimate", "ABe2",
+           "--after", "2"]  # fmt: skip
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "ABe2" in run.stdout

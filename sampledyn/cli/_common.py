@@ -187,3 +187,15 @@ def print_json(document: Mapping[str, Any]) -> None:
 def refuse(message: str) -> None:
     """Raise a :class:`UsageError` (exit status 2)."""
     raise UsageError(message)
+
+
+def registry() -> Any:
+    """The method registry (:mod:`sampledyn.methods`), complete: the estimation layer
+    registers its rules (Ee, ABe<s>) when imported, so every command that names or
+    lists rules asks the registry through here."""
+    from .. import (
+        estimate,  # noqa: F401
+        methods,
+    )
+
+    return methods

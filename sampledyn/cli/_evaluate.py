@@ -6,24 +6,20 @@ import argparse
 import csv
 from typing import Any
 
-from ._common import add_format, names, option, print_json, refuse, writable_file
+from ._common import add_format, names, option, print_json, refuse, registry, writable_file
 
 __all__ = ["add_parser"]
 
 
 def _estimating(name: str) -> bool:
-    from ..methods import get_method
-
-    return bool(getattr(get_method(name), "estimates_params", False))
+    return bool(registry().get_method(name).estimates_params)
 
 
 def _check_estimate(rules: tuple[str, ...]) -> None:
     """Every ``--estimate`` rule must estimate parameters (asked of the registry)."""
-    from ..methods import available_methods
-
     for name in rules:
         if not _estimating(name):
-            known = [m for m in available_methods() if _estimating(m)]
+            known = [m for m in registry().available_methods() if _estimating(m)]
             hint = f" ({', '.join(known)})" if known else ""
             refuse(
                 f"`--estimate {name}`: {name} does not estimate parameters; give a rule that "
@@ -70,10 +66,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     methods = names(args.methods)
     estimate = names(args.estimate)
     with option("--methods"):
-        from ..methods import get_method
-
         for name in methods:
-            get_method(name)
+            registry().get_method(name)
     _check_estimate(estimate)
     out = writable_file(args.out, "--out") if args.out else None
 

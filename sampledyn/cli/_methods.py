@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from ._common import registry
+
 __all__ = ["add_parser"]
 
 
 def _cmd_methods(args: argparse.Namespace) -> int:
-    from .. import estimate  # noqa: F401  (registers Ee, ABe<s>)
-    from ..methods import available_methods, families, get_method
+    reg = registry()
+    available_methods, families, get_method = reg.available_methods, reg.families, reg.get_method
 
     print("Method families:")
     for fam in families():

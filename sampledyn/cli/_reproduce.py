@@ -19,6 +19,7 @@ from ._common import (
     option,
     progress,
     refuse,
+    registry,
     writable_dir,
     writable_file,
 )
@@ -70,11 +71,9 @@ def _check_applies(args: argparse.Namespace) -> None:
 
 
 def _check_methods(methods: tuple[str, ...]) -> None:
-    from ..methods import get_method
-
     with option("--methods"):
         for name in methods:
-            get_method(name)
+            registry().get_method(name)
 
 
 def _engine(args: argparse.Namespace, default_workers: int | None) -> dict[str, Any]:
