@@ -134,7 +134,7 @@ def main() -> None:
 
     # Identification of the vehicle from its log (states and applied inputs): the
     # cross-flow drag, body-lift and stern-plane coefficients, by AB2 least squares.
-    # Noise on the states biases such fits (errors in variables; see the README).
+    # Noise on the states biases such fits (errors in variables; see docs/models.md).
     log = traj.replace(u=applied, input_names=remus.input_names, input_units=remus.input_units)
     free = ("Z_ww", "Z_uw", "M_qq", "M_uw", "Z_uud", "M_uud")
     for data, label in (

@@ -22,6 +22,7 @@ from ._version import __version__ as __version__
 _EXPORTS: dict[str, str | None] = {
     "AdamsBashforth": ".methods",
     "Certificate": "._trajectory",
+    "NumericalError": "._trajectory",
     "EstimatedAdamsBashforth": ".estimate",
     "EstimationResult": ".estimate",
     "Euler": ".methods",
@@ -36,6 +37,7 @@ _EXPORTS: dict[str, str | None] = {
     "estimate": ".estimate",
     "estimate_and_predict": ".estimate",
     "experiments": None,
+    "logs": None,
     "get_method": ".methods",
     "local_errors": ".errors",
     "methods": None,
@@ -52,6 +54,7 @@ __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
     from . import experiments as experiments
+    from . import logs as logs
     from . import methods as methods
     from . import models as models
     from . import report as report
@@ -59,6 +62,7 @@ if TYPE_CHECKING:
     from . import sensitivity as sensitivity
     from . import signals as signals
     from ._trajectory import Certificate as Certificate
+    from ._trajectory import NumericalError as NumericalError
     from ._trajectory import Trajectory as Trajectory
     from .discretize import discretize as discretize
     from .errors import error_norm as error_norm

@@ -9,6 +9,12 @@ import numpy as np
 __all__ = ["Certificate", "Trajectory", "steps_on_grid", "uniform_grid"]
 
 
+class NumericalError(RuntimeError):
+    """A numerical method failed on these inputs (an implicit rule's Newton iteration
+    did not converge, the exact-sample integrator could not meet its tolerance); the
+    message says what to change (a smaller h, another rule, a looser tolerance)."""
+
+
 def _frozen(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:
     """A read-only copy of ``a`` as ``dtype``; an array that already has that dtype, is
     C-ordered, read-only and owns its memory (nothing else can write to it) is taken as

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit, types
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from ._trajectory import Certificate, Trajectory
+from ._trajectory import Certificate, NumericalError, Trajectory
 from .models import RHS_TYPE, RO1, RO2, readonly
 from .models import index_switch as _index_switch
 from .signals import Signal
@@ -41,7 +41,7 @@ _E5 = np.ascontiguousarray(_dop.E5)
 _CHUNK = 1 << 15
 
 
-class IntegrationError(RuntimeError):
+class IntegrationError(NumericalError):
     """The exact-sample integrator could not meet its tolerance."""
 
 

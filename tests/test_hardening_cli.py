@@ -380,3 +380,19 @@ def test_non_plotting_commands_do_not_import_matplotlib(tmp_path):
     assert res.returncode == 0, res.stderr
     seen = [line.split()[1:] for line in res.stderr.splitlines() if line.startswith("MPL ")]
     assert seen == [[args[0], "False"] for args in commands]
+
+
+def test_a_numerical_failure_is_one_line_with_its_own_status(capsys, monkeypatch):
+    """A rule that cannot solve its step on these inputs (advise running T at large h
+    hit this) is not an 'internal error': exit 7, one line that says what to change."""
+    from sampledyn.cli import EXIT_NUMERICAL, _methods
+    from sampledyn.methods import ConvergenceError
+
+    def fails(args):
+        raise ConvergenceError("Tustin's Newton iteration did not converge; use a smaller h.")
+
+    monkeypatch.setattr(_methods, "_cmd_methods", fails)
+    status, err = _fails(["methods"], capsys)
+    assert status == EXIT_NUMERICAL
+    line = _one_line(err)
+    assert "smaller h" in line and "internal error" not in line

@@ -172,3 +172,26 @@ def test_ab_warns_past_the_collapse_of_its_stability_interval():
     assert rec[0].filename == __file__  # points at the caller
     with pytest.warns(UserWarning, match=r"AB20: .*\| = 2\.589e\+05;"):
         sd.AdamsBashforth(20)
+
+
+@pytest.mark.parametrize("h", [1.4, 2.0])
+def test_tustin_converges_at_large_steps_where_newton_does(h):
+    """advise runs T at steps up to 2 s; its simplified Newton must converge wherever
+    full Newton does (a slowly contracting chord iteration renews its Jacobian, a
+    fresh Jacobian's first step is always taken), to Newton's answer."""
+    import sampledyn as sd
+    from sampledyn.sensitivity import gentle_input
+
+    veh = sd.models.load_vehicle("bluerov2_heavy")
+    traj = sd.simulate(veh, gentle_input(veh), T=40.0, h=0.1, certify=False)
+    data = traj.subsample(int(round(h / 0.1)))
+    x_hat = sd.get_method("T").predict(veh, data)
+    # Reference: full Newton, a fresh Jacobian at every iteration.
+    x0, u, t = data.x[:-1], data.u[:-1], data.t[:-1]
+    f0 = veh.f(t, x0, u)
+    x = x0 + h * f0
+    eye = np.eye(12)
+    for _ in range(40):
+        g = x - x0 - 0.5 * h * (f0 + veh.f(t + h, x, u))
+        x = x - np.linalg.solve(eye - 0.5 * h * veh.jacobian(t + h, x, u), g[..., None])[..., 0]
+    np.testing.assert_allclose(x_hat[1:], x, rtol=0, atol=1e-10 * (1 + np.abs(x).max()))

@@ -13,6 +13,7 @@ from ._status import EXIT_DISK as EXIT_DISK
 from ._status import EXIT_FILE as EXIT_FILE
 from ._status import EXIT_INTERNAL as EXIT_INTERNAL
 from ._status import EXIT_INTERRUPTED as EXIT_INTERRUPTED
+from ._status import EXIT_NUMERICAL as EXIT_NUMERICAL
 from ._status import EXIT_OK as EXIT_OK
 from ._status import EXIT_PIPE as EXIT_PIPE
 from ._status import EXIT_STATUSES as EXIT_STATUSES
@@ -26,6 +27,7 @@ __all__ = [
     "EXIT_FILE",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_NUMERICAL",
     "EXIT_OK",
     "EXIT_PIPE",
     "EXIT_STATUSES",

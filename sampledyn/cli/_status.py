@@ -12,12 +12,15 @@ import errno
 import signal
 from typing import Any
 
+from .._trajectory import NumericalError
+
 __all__ = [
     "EXIT_BAD_VALUE",
     "EXIT_DISK",
     "EXIT_FILE",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_NUMERICAL",
     "EXIT_OK",
     "EXIT_PIPE",
     "EXIT_STATUSES",
@@ -37,6 +40,7 @@ EXIT_BAD_VALUE = 3
 EXIT_FILE = 4
 EXIT_DISK = 5
 EXIT_UNAVAILABLE = 6
+EXIT_NUMERICAL = 7
 EXIT_INTERRUPTED = 128 + int(signal.SIGINT)  # 130
 EXIT_PIPE = 128 + 13  # 141, as a Unix tool killed by SIGPIPE
 EXIT_TERMINATED = 128 + int(signal.SIGTERM)  # 143
@@ -52,6 +56,8 @@ EXIT_STATUSES: dict[int, str] = {
     "read-only, a folder where a file is expected or the reverse",
     EXIT_DISK: "no space left (or an I/O error) while writing; finished results are kept",
     EXIT_UNAVAILABLE: "a service does not answer (the Dask scheduler)",
+    EXIT_NUMERICAL: "a numerical method failed on these inputs (Newton did not converge, the "
+    "exact integrator missed its tolerance); the message says what to change",
     EXIT_INTERRUPTED: "interrupted by Ctrl-C (SIGINT); finished results are kept",
     EXIT_PIPE: "the reader of the output went away (e.g. `| head`); quiet, as Unix tools",
     EXIT_TERMINATED: "terminated (SIGTERM); finished results are kept",
@@ -115,6 +121,8 @@ def classify(exc: BaseException) -> tuple[int, str]:
         status, text = _sqlite_status(exc), f"SQLite: {exc}"
     elif isinstance(exc, ValueError | TypeError):
         status, text = EXIT_BAD_VALUE, str(exc)
+    elif isinstance(exc, NumericalError):
+        status, text = EXIT_NUMERICAL, str(exc)
     else:
         status = EXIT_INTERNAL
         text = (

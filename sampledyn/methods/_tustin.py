@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from .._trajectory import Trajectory
+from .._trajectory import NumericalError, Trajectory
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
 from ._registry import register_family
 
@@ -34,7 +34,7 @@ __all__ = ["NEWTON_BLOCK", "ConvergenceError", "Tustin"]
 NEWTON_BLOCK = 2048
 
 
-class ConvergenceError(RuntimeError):
+class ConvergenceError(NumericalError):
     """An implicit rule's Newton iteration did not converge."""
 
 
@@ -196,19 +196,21 @@ class Tustin(FixedRule):
         prev = np.full(m, np.inf)  # size of each interval's last update
         active = np.arange(m)
         refresh = active
-        for _ in range(self.max_iter):
+        for it in range(self.max_iter):
             if refresh.size == m:
                 _factor(_c(model.jacobian(t1, x, u1)), h, refresh, lu, perm)
             elif refresh.size:
                 jac = model.jacobian(t1[refresh], x[refresh], u1[refresh])
                 _factor(_c(jac), h, refresh, lu, perm)
+                prev[refresh] = np.inf  # no contraction estimate across a new Jacobian
             if active.size == m:
                 f1 = _c(model.f(t1, x, u1))
             else:
                 f1 = _c(model.f(t1[active], x[active], u1[active]))
             done = np.empty(active.size, dtype=np.bool_)
             slow = np.empty(active.size, dtype=np.bool_)
-            _chord(x, x0, f0, f1, lu, perm, h, active, self.tol, prev, done, slow)
+            left = self.max_iter - 1 - it
+            _chord(x, x0, f0, f1, lu, perm, h, active, self.tol, left, prev, done, slow)
             refresh = active[slow & ~done]
             active = active[~done]
             if active.size == 0:
@@ -353,7 +355,7 @@ _KAPPA = 0.1
 
 
 @njit(cache=True)
-def _chord(x, x0, f0, f1, lu, perm, h, active, tol, prev, done, slow):  # pragma: no cover
+def _chord(x, x0, f0, f1, lu, perm, h, active, tol, left, prev, done, slow):  # pragma: no cover
     """One simplified-Newton update of the intervals ``active`` (f1[i] = f at x[active[i]]):
     ``x += dx``, ``dx = -LU^-1 (x - x0 - h/2 (f0 + f1))``, and its tests, with the size
     ``q = max_i |dx_i| / (1 + |x_i|)`` and the contraction ``theta = q / q_prev``:
@@ -361,7 +363,11 @@ def _chord(x, x0, f0, f1, lu, perm, h, active, tol, prev, done, slow):  # pragma
     * done[i] if ``q <= tol``, or if ``theta < 1`` and the error left after the
       update, about ``theta / (1 - theta) q``, is <= kappa tol, kappa = 0.1 (Hairer &
       Wanner, Solving ODEs II, Sec. IV.8, eq. (8.13));
-    * slow[i] if ``theta > 1/2``: the interval's Jacobian is renewed.
+    * slow[i] if ``theta > 1/2``, or if ``theta^left q`` (the size after the ``left``
+      iterations that remain) would still exceed kappa tol: the interval's Jacobian is
+      renewed;
+    * an update with ``theta >= 1`` (the chord iteration diverging there) is not
+      applied: the interval gets a fresh Jacobian at its current iterate instead.
     """
     nx = x.shape[1]
     g = np.empty(nx)
@@ -384,13 +390,24 @@ def _chord(x, x0, f0, f1, lu, perm, h, active, tol, prev, done, slow):  # pragma
             g[a] = acc * A[a, a]
         q = 0.0
         for c in range(nx):
-            x[r, c] += g[c]
-            e = abs(g[c]) / (1.0 + abs(x[r, c]))
+            e = abs(g[c]) / (1.0 + abs(x[r, c] + g[c]))
             if not (e <= q):  # NaN propagates
                 q = e
         theta = q / prev[r]  # 0 on the first update (prev = inf): no estimate yet
+        if not (theta < 1.0):
+            # The chord update grows (or is NaN): it is not applied; the interval gets
+            # a fresh Jacobian at its current iterate, i.e. a full Newton step next.
+            done[i] = False
+            slow[i] = True
+            continue
+        for c in range(nx):
+            x[r, c] += g[c]
         done[i] = q <= tol or (0.0 < theta < 1.0 and theta * q <= _KAPPA * tol * (1.0 - theta))
-        slow[i] = not (theta <= 0.5)
+        # Renew the Jacobian where the chord iteration contracts slowly, or too slowly
+        # to reach the tolerance within the iterations left (Hairer & Wanner's test).
+        slow[i] = not (theta <= 0.5) or (
+            not done[i] and theta**left * q > _KAPPA * tol * (1.0 - theta)
+        )
         prev[r] = q
 
 
