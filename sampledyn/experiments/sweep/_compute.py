@@ -294,7 +294,7 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
                     setup.model, method, measured, reference, ctx.signal
                 )
                 x_hat = predict(method, model, data, signal, cache=cache)
-                err = local_errors(x_hat, measured)
+                err = local_errors(x_hat, measured, out=x_hat if x_hat.flags.writeable else None)
                 specs = [ctx.spec(norm) for _key, norm in cells]
                 found = measure(
                     specs,

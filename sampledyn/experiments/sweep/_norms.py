@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import ERROR_NORMS, error_norms
+from ...errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
 from ...noise import NOISE_REFERENCE
 
 __all__ = [
@@ -301,8 +301,7 @@ def _counts(
         if _empty(comps):
             over[name] = np.zeros(err.shape[0], dtype=bool)
             continue
-        e = err[:, comps]
-        sq = np.einsum("ij,ij->i", e, e)
+        sq = sum_of_squares(err, comps)
         keep &= ~np.isnan(sq)
         over[name] = np.sqrt(np.where(np.isnan(sq), 0.0, sq)) > limit
     if not keep.any():
@@ -356,6 +355,7 @@ def measure(
         key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args)
         batches.setdefault(key, []).append(spec)
     noise_values: np.ndarray | None = None
+    windows: dict[int, ErrorWindow] = {}  # by mask: the samples the norms count
     for batch in batches.values():
         first = batch[0]
         if first.part == "noise":
@@ -377,11 +377,14 @@ def measure(
                 out[first] = (values, "")
                 continue
             kinds = tuple(dict.fromkeys(s.kind for s in batch))
+            if id(where) not in windows:
+                windows[id(where)] = error_window(t, after, where)
+            window = windows[id(where)]
             per_group = {
                 name: (
                     dict.fromkeys(kinds, math.nan)
                     if _empty(comps)
-                    else error_norms(data, t, kinds, after, comps, where)
+                    else window.norms(data, kinds, comps)
                 )
                 for name, comps in use.items()
             }

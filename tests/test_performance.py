@@ -1,0 +1,93 @@
+"""What the speed work of the performance issue must not change, and the fixed costs it
+removed: every check here is about numbers staying the same bits or about what gets
+imported; the speed itself is measured in ``benchmarks/`` (ratios in one run), not here.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _run_python(code: str) -> dict:
+    """Run ``code`` in a fresh interpreter (this checkout first on the path); it prints
+    one JSON line last."""
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        check=True,
+    )
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_embedded_dop853_table_is_scipys_to_the_last_bit():
+    """The integrator's coefficient table (embedded, so that simulating does not import
+    scipy.integrate) equals SciPy's transcription of Hairer's dop853.f bit for bit."""
+    from scipy.integrate._ivp import dop853_coefficients as ref
+
+    from sampledyn import _dop853 as ours
+
+    n = ref.N_STAGES
+    assert ours.N_STAGES == n == 12
+    pairs = {
+        "A": (ours.A, ref.A[:n, :n]),
+        "B": (ours.B, ref.B),
+        "C": (ours.C, ref.C[:n]),
+        "E3": (ours.E3, ref.E3),
+        "E5": (ours.E5, ref.E5),
+    }
+    for name, (a, b) in pairs.items():
+        assert a.dtype == np.float64 and a.shape == b.shape, name
+        # view as integers: equal bits, signed zeros included
+        assert np.array_equal(a.view(np.int64), np.ascontiguousarray(b).view(np.int64)), name
+    # the order conditions the table must meet (sum b = 1, c_i = sum_j a_ij)
+    assert abs(ours.B.sum() - 1.0) < 1e-14
+    np.testing.assert_allclose(ours.A.sum(axis=1), ours.C, atol=1e-14)
+
+
+def test_simulating_imports_neither_scipy_integrate_nor_matplotlib():
+    found = _run_python(
+        """
+        import json, sys
+        import numpy as np
+        import sampledyn as sd
+        traj = sd.simulate(sd.models.AUVLike(), sd.signals.Multilevel(hold=0.1, seed=0),
+                           T=1.0, h=0.1, x0=np.array([1.0, 0.0]))
+        sd.predict("RK4", sd.models.AUVLike(), traj)
+        print(json.dumps({m: m in sys.modules for m in
+                          ("scipy.integrate", "scipy.optimize", "matplotlib", "sympy")}))
+        """
+    )
+    assert found == {
+        "scipy.integrate": False,
+        "scipy.optimize": False,
+        "matplotlib": False,
+        "sympy": True,  # the AUV-like model is symbolic (sympy builds its kernel)
+    }, found
+
+
+def test_the_integrator_uses_the_whole_table():
+    """The arrays the compiled integrator freezes into its code are SciPy's 12 stages."""
+    from scipy.integrate._ivp import dop853_coefficients as ref
+
+    sim_module = importlib.import_module("sampledyn.simulate")
+    n = ref.N_STAGES
+    for ours, theirs in (
+        (sim_module._A, ref.A[:n, :n]),
+        (sim_module._B, ref.B),
+        (sim_module._C, ref.C[:n]),
+        (sim_module._E3, ref.E3),
+        (sim_module._E5, ref.E5),
+    ):
+        assert np.array_equal(ours.view(np.int64), np.ascontiguousarray(theirs).view(np.int64))
