@@ -1,6 +1,7 @@
 """``sampledyn reproduce fig7`` end to end: wall time in a fresh process, and where it goes.
 
-Run:  python benchmarks/bench_fig7.py [--runs 3] [--compare DIR] [--in-process] [--json PATH]
+Run:  python benchmarks/bench_fig7.py [--runs 3] [--compare DIR] [--baseline DIR]
+      [--also-bluerov2] [--in-process] [--json PATH]
 
 Issue 14's row "``reproduce fig7``, 10 seeds, warm cache, fresh process" (target <= 6 s
 on a quiet machine). The command is run as a user runs it, with its defaults (the
@@ -18,6 +19,8 @@ RexROV open loop, T = 5000 s, 10 seeds, 6,660 cells, 2 local worker processes):
   per worker), collecting the results, and the output (summary, CSVs, figure, tables).
 * ``--compare DIR``: the CSVs written must equal those in DIR byte for byte (e.g. the
   output of the main branch): a speed-up must not change a number.
+* ``--baseline DIR``: the same command from another checkout (e.g. ``git archive`` of
+  main), timed interleaved with this one (same load).
 * ``--in-process``: the older one-process table (the engine in this process, chunks as
   two workers get them): CPU seconds in simulate, predict, norms, store, the rest.
 """
@@ -42,10 +45,10 @@ REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 6.0
 
 
-def _env() -> dict[str, str]:
+def _env(checkout: Path = REPO) -> dict[str, str]:
     env = dict(os.environ)
     env.pop("PYTHONDONTWRITEBYTECODE", None)  # warm cache: keep the bytecode
-    env["PYTHONPATH"] = str(REPO) + (os.pathsep + env["PYTHONPATH"] if "PYTHONPATH" in env else "")
+    env["PYTHONPATH"] = str(checkout)
     return env
 
 
@@ -54,18 +57,22 @@ def _command(out: Path, extra: list[str]) -> list[str]:
             *extra]  # fmt: skip
 
 
-def wall_runs(runs: int, variants: dict[str, list[str]], tmp: Path) -> dict[str, list[tuple]]:
-    """(seconds, load before) of each timed run, variants interleaved."""
-    for name, extra in variants.items():  # fill the caches, untimed
-        subprocess.run(_command(tmp / f"warm_{name}", extra), env=_env(), check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+def wall_runs(
+    runs: int, variants: dict[str, tuple[Path, list[str]]], tmp: Path
+) -> dict[str, list[tuple]]:
+    """(seconds, load before) of each timed run, variants (checkout, extra options)
+    interleaved."""
+    for name, (checkout, extra) in variants.items():  # fill the caches, untimed
+        subprocess.run(_command(tmp / f"warm_{name}", extra), env=_env(checkout), check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp)  # fmt: skip
     times: dict[str, list[tuple]] = {name: [] for name in variants}
     for i in range(runs):
-        for name, extra in variants.items():
+        for name, (checkout, extra) in variants.items():
             load = os.getloadavg()[0]
             t0 = time.perf_counter()
-            subprocess.run(_command(tmp / f"{name}_{i}", extra), env=_env(), check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+            subprocess.run(_command(tmp / f"{name}_{i}", extra), env=_env(checkout), check=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           cwd=tmp)  # fmt: skip
             times[name].append((time.perf_counter() - t0, load))
             print(f"  run {i + 1} {name}: {times[name][-1][0]:.2f} s (load {load:.2f})",
                   flush=True)  # fmt: skip
@@ -138,6 +145,7 @@ def timeline(tmp: Path, extra: list[str]) -> dict[str, Any]:
     """One run with time stamps; the phase table's numbers."""
     log = tmp / "timeline.jsonl"
     env = _env() | {"BENCH_LOG": str(log)}
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(Path(__file__).parent)])
     env["BENCH_T0"] = repr(time.time())
     done = subprocess.run(
         [sys.executable, __file__, "--child-timeline", "--", "-q", "reproduce", "fig7",
@@ -242,6 +250,8 @@ def main() -> None:
     ap.add_argument("--also-bluerov2", action="store_true",
                     help="also time the BlueROV2 Heavy + hold, interleaved")  # fmt: skip
     ap.add_argument("--compare", type=Path, help="folder whose fig7*.csv must be equal")
+    ap.add_argument("--baseline", type=Path,
+                    help="another checkout (e.g. main), timed interleaved")  # fmt: skip
     ap.add_argument("--in-process", action="store_true", help="also the one-process table")
     ap.add_argument("--seeds", type=int, default=10, help="seeds (--in-process only)")
     ap.add_argument("--json", help="write the table row here")
@@ -250,9 +260,16 @@ def main() -> None:
     if args.child_timeline:
         _child_timeline([a for a in rest if a != "--"])
         return
-    variants = {"rexrov": []}
+    variants: dict[str, tuple[Path, list[str]]] = {"rexrov": (REPO, [])}
     if args.also_bluerov2:
-        variants["bluerov2_heavy + hold"] = ["--vehicle", "bluerov2_heavy"]
+        variants["bluerov2_heavy + hold"] = (REPO, ["--vehicle", "bluerov2_heavy"])
+    if args.baseline is not None:
+        variants["rexrov, baseline"] = (args.baseline.resolve(), [])
+        if args.also_bluerov2:
+            variants["bluerov2_heavy + hold, baseline"] = (
+                args.baseline.resolve(),
+                ["--vehicle", "bluerov2_heavy"],
+            )
     with tempfile.TemporaryDirectory() as tmpname:
         tmp = Path(tmpname)
         print("reproduce fig7 (defaults: RexROV open loop, 10 seeds, 2 workers), fresh processes")
@@ -281,8 +298,8 @@ def main() -> None:
                 load=[min(loads), max(loads)],
             ))  # fmt: skip
         else:
-            rows.append(row("`reproduce fig7 --vehicle bluerov2_heavy` (hold)", min(secs),
-                            f"{min(secs):.1f} s", "", None))  # fmt: skip
+            rows.append(row(f"`reproduce fig7`: {name}", min(secs), f"{min(secs):.1f} s", "",
+                            None))  # fmt: skip
     if same is not None:
         print(f"CSVs equal to {args.compare}: {same}")
         rows.append(row("fig7 CSVs equal to the reference's, byte for byte", None,
