@@ -1,6 +1,6 @@
 """Discrete-time models and the sampled loop: step overhead, rollout, the LQR study.
 
-Run:  python benchmarks/bench_discretize.py [--study] [--mpc]
+Run:  python benchmarks/bench_discretize.py [--study] [--mpc] [--json PATH]
 
 Every time is the best of several interleaved repeats, and the step overhead is a
 difference against a reference measured in the same run (the shared 2-core machine
@@ -10,7 +10,9 @@ changes absolute numbers, not these differences by much):
   bare compiled kernel ``vehicle_rhs(t, x, u, p, out)`` called from Python with
   prepared arrays (one f evaluation). Target (issue 12): step - f <= 5 us.
 * ``rollout``: ns per sample of ``rollout(measured, k)`` (compiled over all samples)
-  against k x the per-sample cost of f over the same samples (batched), AB4 and RK4.
+  against k x the per-sample cost of f over the same samples (batched), AB4 and RK4,
+  and ``rollout(measured, 1)`` against ``sd.predict`` with the same rule (issue 14: the
+  AB4 rollout evaluates f once per sample, as predict does).
 * ``--study``: the LQR closed-loop study of ``sampledyn reproduce closed-loop`` with the
   issue's grid (RexROV and BlueROV2 Heavy, ZOH + 6 rules, h = 0.1 and 0.5 s, 4 noise
   pairs, 5 seeds, 600 s each) in this process: wall time. Target: < 3 min on the
@@ -28,6 +30,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _rows import row, write_json
 from bench_models import best_per_call  # the interleaved best-of timer (same folder)
 
 import sampledyn as sd
@@ -39,6 +42,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", action="store_true", help="time the LQR closed-loop study")
     parser.add_argument("--mpc", action="store_true", help="time the MPC example")
+    parser.add_argument("--json", help="write the issue 14 row here")
     args = parser.parse_args()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -64,18 +68,32 @@ def main() -> None:
     exact = sd.simulate(veh, fig6_thrusters(veh), 600.0, 0.1, certify=False)
     meas = sd.add_noise(exact, 2, 2, seed=0)
     n = meas.n_samples
-    f_batch = best_per_call({"f": lambda: veh.f(meas.t, meas.x, meas.u)}, 3)["f"] / n
-    for rule in ("AB4", "RK4"):
-        dm = sd.discretize(veh, rule, 0.1)
+    models = {rule: sd.discretize(veh, rule, 0.1) for rule in ("AB4", "RK4")}
+    fns = {"f": lambda: veh.f(meas.t, meas.x, meas.u)}
+    for rule, dm in models.items():
+        fns[f"predict {rule}"] = lambda rule=rule: sd.predict(rule, veh, meas)
         for k in (1, 10):
-            dm.rollout(meas, k)
-            per = best_per_call({"r": lambda dm=dm, k=k: dm.rollout(meas, k)}, 2, 5)["r"] / n
+            fns[f"{rule} {k}"] = lambda dm=dm, k=k: dm.rollout(meas, k)
+    for fn in fns.values():
+        fn()  # compile, load
+    per = {name: sec / n for name, sec in best_per_call(fns, 2, 7).items()}
+    for rule in models:
+        for k in (1, 10):
             evals = k * (4 if rule == "RK4" else 1)
             print(
-                f"rollout {rule} k={k:2d}: {1e9 * per:7.1f} ns/sample = "
-                f"{per / (evals * f_batch):.2f} x ({evals} f per sample, batched f "
-                f"{1e9 * f_batch:.1f} ns)"
+                f"rollout {rule} k={k:2d}: {1e9 * per[f'{rule} {k}']:7.1f} ns/sample = "
+                f"{per[f'{rule} {k}'] / (evals * per['f']):.2f} x ({evals} f per sample, "
+                f"batched f {1e9 * per['f']:.1f} ns)"
             )
+        print(
+            f"rollout {rule} k= 1 / predict {rule}: {per[f'{rule} 1'] / per[f'predict {rule}']:.2f}"
+        )
+    ratio = per["AB4 1"] / per["predict AB4"]
+    write_json(args.json, "bench_discretize", [
+        row("`discretize(model, \"AB4\", h).rollout(data, 1)` / `predict(\"AB4\")` (RexROV)",
+            ratio, f"{ratio:.2f}x ({per['AB4 1'] / per['f']:.2f} f per sample)",
+            "one f per sample, as predict (<= 1.3x)", ratio <= 1.3),
+    ])  # fmt: skip
 
     if args.study:
         from sampledyn.experiments import (

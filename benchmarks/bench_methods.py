@@ -2,6 +2,7 @@
 method object, of the held-input rules, and of predicting on non-uniform time.
 
 Run:  python benchmarks/bench_methods.py [--fig7-T 5000] [--T 200] [--h 0.01] [--rounds 7]
+      [--fig7-only] [--json PATH]
 
 Every number is a ratio of timings taken in the same run on the same samples,
 interleaved (``--rounds`` rounds, the minimum of each), so it does not depend on the
@@ -35,6 +36,7 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
+from _rows import row, write_json
 
 import sampledyn as sd
 from sampledyn.methods import ab_filter, get_method, grid_steps
@@ -77,8 +79,9 @@ def trapezoid_reference(model, data, x_hat):
     return x
 
 
-def fig7_rows(T: float, rounds: int) -> None:
-    """The issue 14 rows on the Fig. 7 model (see the module docstring)."""
+def fig7_rows(T: float, rounds: int) -> list[dict]:
+    """The issue 14 rows on the Fig. 7 model (see the module docstring); printed, and
+    returned as table rows."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the RexROV file's added-mass symmetry note
         vehicle = sd.models.load_vehicle("rexrov").with_buoyancy(1.0)
@@ -147,6 +150,21 @@ def fig7_rows(T: float, rounds: int) -> None:
         print(f"  {label:{width}s}  {value:>22s}  {target}")
     ms = best["f"] * 1e3
     print(f"  (f alone: {ms:.1f} ms per batch of {n}; one run on a shared machine: noisy)")
+    ab4 = n / best["AB4"] / 1e6
+    ab4_e = best["AB4"] / best["E"]
+    rk4 = best["RK4"] / (4 * best["f"])
+    t_ab4 = best["T"] / best["AB4"]
+    where = f"RexROV Fig. 7 run, {n} samples"
+    return [
+        row("T one-step prediction, 50k samples, time / AB4's", t_ab4, f"{t_ab4:.1f}x",
+            "<= 15x", t_ab4 <= 15.0, where=where, t_vs_trapezoid_tol=dev / tol),
+        row("RK4 one-step prediction, time / (4 x f alone, batched)", rk4, f"{rk4:.2f}x",
+            "<= 1.15x", rk4 <= 1.15, where=where),
+        row("AB4 one-step prediction", ab4, f"{ab4:.2f} M samples/s", ">= 5 M/s", ab4 >= 5.0,
+            where=where),
+        row("AB4 / E (one-step prediction)", ab4_e, f"{ab4_e:.2f}", "<= 1.1", ab4_e <= 1.1,
+            where=where),
+    ]  # fmt: skip
 
 
 def main() -> None:
@@ -155,8 +173,13 @@ def main() -> None:
     parser.add_argument("--h", type=float, default=0.01)
     parser.add_argument("--fig7-T", type=float, default=5000.0)
     parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--fig7-only", action="store_true", help="only the issue 14 rows")
+    parser.add_argument("--json", help="write the issue 14 rows here")
     args = parser.parse_args()
-    fig7_rows(args.fig7_T, args.rounds)
+    rows = fig7_rows(args.fig7_T, args.rounds)
+    write_json(args.json, "bench_methods", rows)
+    if args.fig7_only:
+        return
     print()
     model = sd.models.AUVLike()
     runs = {}

@@ -1,6 +1,6 @@
 """Model evaluation from Python: one f call, a batch of one, large batches, kernels.
 
-Run:  python benchmarks/bench_models.py [--n 100000] [--cache]
+Run:  python benchmarks/bench_models.py [--n 100000] [--cache] [--json PATH]
 
 Every time is the best of several repeats, and every ratio is against a reference
 measured in the same run, so the numbers are robust to the speed of a shared machine:
@@ -13,7 +13,10 @@ measured in the same run, so the numbers are robust to the speed of a shared mac
   dispatch, measured here as ``fn-pointer``); now it is bound to the kernel as a global.
   Target <= 5 us.
 * ``jacobian``: ``model.jacobian(t, x, u)`` for one state and a batch of one (the
-  vehicle's pitch check runs on a float there, as in ``f``).
+  vehicle's pitch check runs on a float there, as in ``f``); the closed loop (BlueROV2
+  Heavy + attitude hold) against the open-loop vehicle.
+
+The issue 14 rows are those of the Fig. 7 model, the RexROV open loop.
 * ``large batch``: ns per sample of ``model.f`` on N states against the function-
   pointer evaluator on the same states. Target: no slower (ratio <= 1).
 * ``kernel``: ns per call of the model's kernel inside a compiled loop through a
@@ -34,11 +37,14 @@ import sys
 import tempfile
 import textwrap
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
+from _rows import row, write_json
 
 import sampledyn as sd
+from sampledyn.experiments import fig7_vehicle
 from sampledyn.models._base import _batch_rhs, readonly
 
 
@@ -91,7 +97,7 @@ def python_calls(name: str, model, rng) -> dict[str, float]:
     return {"bare_us": bare * 1e6, "single_us": single * 1e6, "batch1_us": batch1 * 1e6}
 
 
-def python_jacobian_calls(name: str, model, rng) -> None:
+def python_jacobian_calls(name: str, model, rng) -> dict[str, float]:
     t1, x1, u1, x0, u0 = one_state(model, rng)
     model.jacobian(0.0, x0, u0)  # compile / load
     model.jacobian(t1, x1, u1)
@@ -106,6 +112,7 @@ def python_jacobian_calls(name: str, model, rng) -> None:
         f"{name:<28} jacobian: single {times['single'] * 1e6:6.2f} us | batch of one "
         f"{times['batch1'] * 1e6:6.2f} us"
     )
+    return {"single_us": times["single"] * 1e6, "batch1_us": times["batch1"] * 1e6}
 
 
 def large_batch(name: str, model, rng, n: int) -> None:
@@ -190,22 +197,39 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--n", type=int, default=100_000, help="large batch size")
     ap.add_argument("--cache", action="store_true", help="also time cold and warm construction")
+    ap.add_argument("--json", help="write the issue 14 rows here")
     args = ap.parse_args()
     rng = np.random.default_rng(0)
     vehicle = sd.models.load_vehicle("bluerov2_heavy")
     hold = sd.models.AttitudeHold(vehicle)
     auv = sd.models.AUVLike()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the RexROV file's added-mass symmetry note
+        rexrov = fig7_vehicle(sd.models.load_vehicle("rexrov"), 1.0)
     models = (
+        ("RexROV (the Fig. 7 model)", rexrov),
         ("AUV-like (symbolic)", auv),
         ("BlueROV2 Heavy + hold", hold),
         ("BlueROV2 Heavy (open loop)", vehicle),
     )
     print("One f evaluation from Python (target: single and batch of one <= 5 us)")
-    for name, model in models:
-        python_calls(name, model, rng)
+    f_us = {name: python_calls(name, model, rng) for name, model in models}
     print("\nOne Jacobian evaluation from Python")
-    for name, model in models:
-        python_jacobian_calls(name, model, rng)
+    jac_us = {name: python_jacobian_calls(name, model, rng) for name, model in models}
+    fig7 = f_us["RexROV (the Fig. 7 model)"]
+    hold_j = jac_us["BlueROV2 Heavy + hold"]
+    open_j = jac_us["BlueROV2 Heavy (open loop)"]
+    ratio = hold_j["single_us"] / open_j["single_us"]
+    rows = [
+        row("one f evaluation from Python, single state (RexROV)", fig7["single_us"],
+            f"{fig7['single_us']:.2f} us", "<= 5 us", fig7["single_us"] <= 5.0),
+        row("one f evaluation from Python, batch of one (RexROV)", fig7["batch1_us"],
+            f"{fig7['batch1_us']:.2f} us", "<= 5 us", fig7["batch1_us"] <= 5.0),
+        row("closed-loop Jacobian from Python, one state (BlueROV2 Heavy + hold)",
+            hold_j["single_us"], f"{hold_j['single_us']:.1f} us ({ratio:.1f}x the open-loop "
+            f"vehicle's {open_j['single_us']:.1f} us)", "near the open-loop vehicle's", None),
+    ]  # fmt: skip
+    write_json(args.json, "bench_models", rows)
     print("\nLarge batches")
     for name, model in models:
         large_batch(name, model, rng, args.n)

@@ -1,6 +1,6 @@
 """Sweep benchmark: scaling from 1 to 2 worker processes, and the cost of the store.
 
-Run:  python benchmarks/bench_sweep.py [--T 600] [--repeat 3]
+Run:  python benchmarks/bench_sweep.py [--T 600] [--repeat 3] [--dask] [--json PATH]
 
 A 1,000-cell sweep of the AUV-like system (eqs. (9)-(10)): 4 sampling periods x 50
 measured trajectories (8 noise pairs, 7 seeds; the noise-free pair once) x 5 methods
@@ -28,6 +28,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _rows import row, write_json
 
 from sampledyn.experiments.sweep import ResultStore, SweepSummary, local_cluster, run_sweep
 
@@ -97,7 +99,7 @@ def _dask_ratios(cfg: Path, folder: Path, repeat: int) -> dict[str, float]:
 
 def _bare_store_cost(folder: Path, cells_per_batch: int) -> float:
     """Seconds per cell to write 1,000 cells in batches of ``cells_per_batch``."""
-    row = {
+    record = {
         "key": "",
         "run_id": "r",
         "computed_at": 0.0,
@@ -115,7 +117,7 @@ def _bare_store_cost(folder: Path, cells_per_batch: int) -> float:
     with ResultStore(folder / "bare.db") as st:
         t0 = time.perf_counter()
         for b in range(0, 1000, cells_per_batch):
-            st.write([{**row, "key": f"{b}-{i}"} for i in range(cells_per_batch)])
+            st.write([{**record, "key": f"{b}-{i}"} for i in range(cells_per_batch)])
         return (time.perf_counter() - t0) / 1000
 
 
@@ -124,6 +126,7 @@ def main() -> int:
     ap.add_argument("--T", type=float, default=600.0, help="duration of each run (s)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per worker count (best taken)")
     ap.add_argument("--dask", action="store_true", help="also compare Dask LocalClusters")
+    ap.add_argument("--json", help="write the issue 14 rows here")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -166,6 +169,18 @@ def main() -> int:
     )
     for name, ratio in ratios.items():
         print(f"Dask {name} (2 x 1 thread) / --workers 2: {ratio:.2f}x  (target <= 1.15x)")
+    rows = [
+        row("sweep, 2 workers / 1 worker (1,000 cells)", speedup, f"{speedup:.2f}x speed-up",
+            ">= 1.7x with 2 free cores", None, rows_identical=same),
+    ]  # fmt: skip
+    if "local_cluster" in ratios:
+        r = ratios["local_cluster"]
+        rows.insert(0, row(
+            "Dask LocalCluster (2 x 1 thread) / `--workers 2`, same 1,000-cell sweep", r,
+            f"{r:.2f}x", "<= 1.15x", r <= 1.15,
+            plain_local_cluster=ratios.get("plain LocalCluster"),
+        ))  # fmt: skip
+    write_json(args.json, "bench_sweep", rows, rows_identical=same)
     ok = same and speedup >= 1.7 and overhead_run < 0.05
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1

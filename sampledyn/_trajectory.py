@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -198,6 +199,13 @@ class Trajectory:
     def nu(self) -> int:
         return int(self.u.shape[1])
 
+    @cached_property
+    def on_uniform_grid(self) -> bool:
+        """True if ``t`` is uniform with step ``h`` up to the rounding of t
+        (:func:`uniform_grid`): the test that selects the rules' fixed-step code.
+        Computed once per Trajectory (its arrays are read-only)."""
+        return uniform_grid(self.t, self.h)
+
     def is_uniform(self, rtol: float = 1e-6) -> bool:
         """True if every step ``t[n+1] - t[n]`` is within ``rtol * h`` of ``h``.
 
@@ -244,14 +252,22 @@ class Trajectory:
         )
 
     def check_finite(self, argument: str = "measured") -> None:
-        """Raise ``ValueError`` naming the first sample that holds NaN or inf."""
+        """Raise ``ValueError`` naming the first sample that holds NaN or inf (looked
+        for once per Trajectory: its arrays are read-only)."""
+        if self._first_non_finite is not None:
+            name, n = self._first_non_finite
+            raise ValueError(
+                f"`{argument}.{name}` holds NaN or inf; first bad sample n={n} "
+                f"(t={self.t[n]:g} s). Remove or fill it before predicting."
+            )
+
+    @cached_property
+    def _first_non_finite(self) -> tuple[str, int] | None:
+        """(array name, sample) of the first NaN or inf in x, u, t (in that order)."""
         for name, a in (("x", self.x), ("u", self.u), ("t", self.t)):
             if np.isfinite(a).all():
                 continue
             bad = ~np.isfinite(a if a.ndim == 2 else a[:, None]).all(axis=1)
             if bad.any():
-                n = int(np.argmax(bad))
-                raise ValueError(
-                    f"`{argument}.{name}` holds NaN or inf; first bad sample n={n} "
-                    f"(t={self.t[n]:g} s). Remove or fill it before predicting."
-                )
+                return name, int(np.argmax(bad))
+        return None

@@ -29,23 +29,37 @@ unweighted ones, bit for bit. The errors themselves are not rescaled by the step
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ._trajectory import Trajectory, uniform_grid
 
-__all__ = ["ERROR_NORMS", "error_norm", "error_norms", "local_errors"]
+__all__ = [
+    "ERROR_NORMS",
+    "ErrorWindow",
+    "error_norm",
+    "error_norms",
+    "error_window",
+    "local_errors",
+    "sum_of_squares",
+]
 
 ERROR_NORMS = ("rms", "max", "l2_over_n", "l2", "mean")
 
 
-def local_errors(x_hat: np.ndarray, reference: Trajectory | np.ndarray) -> np.ndarray:
+def local_errors(
+    x_hat: np.ndarray, reference: Trajectory | np.ndarray, *, out: np.ndarray | None = None
+) -> np.ndarray:
     """Disturbed local errors ``x_ref[n] - x_hat[n]`` (section 5.1).
 
     With measured data as the reference these are the paper's disturbed local errors
     (measurement minus prediction); with ``measured.clean`` they are the errors
     against the exact samples.
+
+    ``out`` (float64, the shape of ``x_hat``; it may be ``x_hat`` itself, a prediction
+    that is not needed afterwards) receives the errors instead of a new array.
 
     Returns
     -------
@@ -55,7 +69,36 @@ def local_errors(x_hat: np.ndarray, reference: Trajectory | np.ndarray) -> np.nd
     x_hat = np.asarray(x_hat, dtype=float)
     if x_hat.shape != ref.shape:
         raise ValueError(f"`x_hat` has shape {x_hat.shape}, the reference {ref.shape}.")
-    return ref - x_hat
+    return np.subtract(ref, x_hat, out=out)
+
+
+def sum_of_squares(errors: np.ndarray, components: Any = None) -> np.ndarray:
+    """Per-sample sum of squares over the selected components, ``sum_i e[n, i]^2``,
+    shape (N,); NaN where a selected component is NaN. The one place every norm of
+    local errors (and the noise bounds compared with them) forms it, so all agree to
+    the last bit.
+
+    errors : ndarray, shape (N, nx)
+    components : None (all), a slice, or a sequence of int (in that order)
+
+    The order of the floating-point sum is fixed: over a slice (all components
+    included) it is ``numpy.einsum("ij,ij->i")`` of the rows; over an index set it is
+    the sum from the first index to the last, each square rounded, as ``einsum`` forms
+    it on the gathered columns (computed here without gathering them).
+    """
+    e = np.asarray(errors, dtype=float)
+    if components is None or isinstance(components, slice):
+        part = e if components is None else e[:, components]
+        return np.einsum("ij,ij->i", part, part)
+    cols = np.asarray(components, dtype=np.int64).reshape(-1)
+    if e.ndim != 2 or cols.size == 0 or cols.min() < -e.shape[1] or cols.max() >= e.shape[1]:
+        return np.einsum("ij,ij->i", e[:, cols], e[:, cols])  # numpy's own errors
+    from ._sums import squares_in_order  # numba, loaded on first use
+
+    cols = np.where(cols < 0, cols + e.shape[1], cols)
+    out = np.empty(e.shape[0])
+    squares_in_order(e, cols, out)
+    return out
 
 
 def error_norm(
@@ -110,50 +153,110 @@ def error_norms(
         raise ValueError(
             f"`errors` must have shape (len(t), nx), got {e.shape} with len(t)={t.shape[0]}."
         )
-    if components is not None:
-        e = e[:, components]
+    _check_kinds(kinds)
+    return error_window(t, after, where).norms(e, kinds, components)
+
+
+def _check_kinds(kinds: tuple[str, ...]) -> None:
     for kind in kinds:
         if kind not in ERROR_NORMS:
             raise ValueError(f"unknown norm kind {kind!r}; valid: {', '.join(ERROR_NORMS)}.")
-    sq = np.einsum("ij,ij->i", e, e)  # NaN where any component is NaN
-    keep = ~np.isnan(sq)
+
+
+@dataclass(frozen=True)
+class ErrorWindow:
+    """The samples a norm counts (t >= ``after`` and ``where``), found once for several
+    norms of errors on the same sample times (:func:`error_window`).
+
+    Attributes
+    ----------
+    n_samples : int
+        N, the number of samples of the errors it applies to.
+    after : float or None
+        Start of the window (s).
+    rows : slice or ndarray of int
+        The samples inside the window, ascending (a slice when they are the samples
+        from some n on, as for increasing t without ``where``).
+    span : ndarray or None
+        ``t_n - t_{n-1}`` of those samples on a non-uniform grid (the weights of the
+        module docstring before normalisation); None on a uniform one.
+    """
+
+    n_samples: int
+    after: float | None
+    rows: Any
+    span: np.ndarray | None
+
+    def norms(
+        self, errors: np.ndarray, kinds: tuple[str, ...] = ERROR_NORMS, components: Any = None
+    ) -> dict[str, float]:
+        """:func:`error_norms` of ``errors``, shape (N, nx), on this window's samples
+        (samples whose selected components hold NaN are left out, as there)."""
+        if errors.shape[0] != self.n_samples:
+            raise ValueError(
+                f"`errors` has {errors.shape[0]} samples, the window {self.n_samples}."
+            )
+        _check_kinds(kinds)
+        sq = sum_of_squares(errors[self.rows], components)  # NaN where a component is
+        span = self.span
+        missing = np.isnan(sq)
+        if missing.any():
+            sq = sq[~missing]
+            span = None if span is None else span[~missing]
+        if sq.size == 0:
+            raise ValueError(
+                f"no samples with a prediction at t >= after={self.after}; "
+                "shorten `after` or lengthen the run."
+            )
+        w = None if span is None else span / span.mean()
+        total = float(sq.sum()) if w is None else float((w * sq).sum())
+        out: dict[str, float] = {}
+        for kind in kinds:
+            if kind == "rms":
+                out[kind] = float(np.sqrt(total / sq.size))
+            elif kind == "max":
+                out[kind] = float(np.sqrt(sq.max()))
+            elif kind == "l2_over_n":
+                out[kind] = float(np.sqrt(total) / sq.size)
+            elif kind == "l2":
+                out[kind] = float(np.sqrt(total))
+            elif w is None:
+                out[kind] = float(np.sqrt(sq).mean())
+            else:
+                out[kind] = float((w * np.sqrt(sq)).sum() / sq.size)
+        return out
+
+
+def error_window(
+    t: np.ndarray, after: float | None = None, where: np.ndarray | None = None
+) -> ErrorWindow:
+    """The samples of the times ``t`` (s), shape (N,), that the norms count: t >= ``after``
+    (to 1e-9 relative) and, if given, ``where`` (bool, shape (N,)); with their step
+    weights on a non-uniform grid. Several norms on the same times share it
+    (:meth:`ErrorWindow.norms`).
+
+    Raises
+    ------
+    ValueError
+        if ``where`` has the wrong shape.
+    """
+    t = np.asarray(t, dtype=float)
+    n = t.shape[0]
+    keep = None
     if where is not None:
         where = np.asarray(where, dtype=bool)
-        if where.shape != keep.shape:
-            raise ValueError(f"`where` must have shape {keep.shape}, got {where.shape}.")
-        keep &= where
+        if where.shape != (n,):
+            raise ValueError(f"`where` must have shape {(n,)}, got {where.shape}.")
+        keep = where.copy()
     if after is not None:
-        keep &= t >= after - 1e-9 * max(1.0, abs(after))
-    sq = sq[keep]
-    if sq.size == 0:
-        raise ValueError(
-            f"no samples with a prediction at t >= after={after}; "
-            "shorten `after` or lengthen the run."
-        )
-    w = _step_weights(t, keep)
-    total = float(sq.sum()) if w is None else float((w * sq).sum())
-    out: dict[str, float] = {}
-    for kind in kinds:
-        if kind == "rms":
-            out[kind] = float(np.sqrt(total / sq.size))
-        elif kind == "max":
-            out[kind] = float(np.sqrt(sq.max()))
-        elif kind == "l2_over_n":
-            out[kind] = float(np.sqrt(total) / sq.size)
-        elif kind == "l2":
-            out[kind] = float(np.sqrt(total))
-        elif w is None:
-            out[kind] = float(np.sqrt(sq).mean())
-        else:
-            out[kind] = float((w * np.sqrt(sq)).sum() / sq.size)
-    return out
-
-
-def _step_weights(t: np.ndarray, keep: np.ndarray) -> np.ndarray | None:
-    """Weights of the kept samples on a non-uniform grid (module docstring), None on a
-    uniform one."""
-    if t.size < 2 or uniform_grid(t, (t[-1] - t[0]) / (t.size - 1)):
-        return None
-    steps = np.diff(t)
-    span = np.concatenate([steps[:1], steps])[keep]  # sample n: t_n - t_{n-1}
-    return span / span.mean()
+        late = t >= after - 1e-9 * max(1.0, abs(after))
+        keep = late if keep is None else keep & late
+    rows: Any = slice(0, n)
+    if keep is not None:
+        first = int(np.argmax(keep)) if keep.any() else n
+        rows = slice(first, n) if keep[first:].all() else np.flatnonzero(keep)
+    span = None
+    if not (n < 2 or uniform_grid(t, (t[-1] - t[0]) / (n - 1))):
+        steps = np.diff(t)
+        span = np.concatenate([steps[:1], steps])[rows]  # sample n: t_n - t_{n-1}
+    return ErrorWindow(n, after, rows, span)

@@ -94,5 +94,11 @@ def add_noise(
             draw = rng.uniform(-1.0, 1.0, shape)
         else:
             draw = rng.standard_normal(shape) / math.sqrt(3.0)
-        noise[:, cols] = draw * amp[cols]
-    return clean.replace(x=clean.x + noise, clean=clean)
+        if cols[-1] - cols[0] + 1 == cols.size:  # adjacent columns: a view, no temporary
+            np.multiply(draw, amp[cols], out=noise[:, cols[0] : cols[-1] + 1])
+        else:
+            noise[:, cols] = draw * amp[cols]
+    # x + noise in the noise's memory, handed to the Trajectory without a copy
+    np.add(clean.x, noise, out=noise)
+    noise.setflags(write=False)
+    return clean.replace(x=noise, clean=clean)

@@ -2,10 +2,10 @@
 
 Each sampling interval ``[t_n, t_{n+1}]`` is integrated on its own with the
 Dormand-Prince 8(5,3) pair (Hairer, Norsett & Wanner, *Solving ODEs I*, 2nd ed.,
-sec. II.10; the coefficients are read from SciPy's ``DOP853``), with error-controlled
-steps that never cross a sample time, so an input that jumps at a sample time is never
-integrated across. Where f is not smooth inside an interval (``|v| v`` or ``n |n|``
-crossing zero) the error control shrinks the step there instead of every step.
+sec. II.10; the coefficients of Hairer's ``dop853.f``, in :mod:`sampledyn._dop853`), with
+error-controlled steps that never cross a sample time, so an input that jumps at a sample
+time is never integrated across. Where f is not smooth inside an interval (``|v| v`` or
+``n |n|`` crossing zero) the error control shrinks the step there instead of every step.
 
 The samples come with a :class:`~sampledyn.Certificate`: every interval is integrated a
 second time, in lockstep, with each accepted step halved, and the difference is the
@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 from numba import njit, types
-from scipy.integrate._ivp import dop853_coefficients as _dop
 
+from . import _dop853 as _dop
 from ._trajectory import Certificate, NumericalError, Trajectory
 from .models import RHS_TYPE, RO1, RO2, readonly
 from .models import index_switch as _index_switch
@@ -30,9 +30,9 @@ from .signals import Signal
 __all__ = ["IntegrationError", "integrate_intervals", "simulate", "switching"]
 
 _NS = _dop.N_STAGES
-_A = np.ascontiguousarray(_dop.A[:_NS, :_NS])
+_A = np.ascontiguousarray(_dop.A)
 _B = np.ascontiguousarray(_dop.B)
-_C = np.ascontiguousarray(_dop.C[:_NS])
+_C = np.ascontiguousarray(_dop.C)
 _E3 = np.ascontiguousarray(_dop.E3)
 _E5 = np.ascontiguousarray(_dop.E5)
 

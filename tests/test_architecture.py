@@ -31,6 +31,8 @@ PACKAGE = "sampledyn"
 # modules that do not exist yet are allowed (they place future code).
 LAYERS: dict[str, int] = {
     "sampledyn._trajectory": 0,
+    "sampledyn._dop853": 0,
+    "sampledyn._sums": 0,
     "sampledyn._version": 0,
     "sampledyn.models": 1,
     "sampledyn.signals": 1,

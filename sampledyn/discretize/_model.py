@@ -96,6 +96,38 @@ def free_run(t, u, p, h, z0, out):
         step(t[k], out[k], u[k], p, h, out[k + 1])
 """
 
+# A rule whose z holds f blocks and whose step takes f0 (``step_f``): the rollout over
+# sampled data evaluates f once per sample.
+_ROLLOUT_F = """
+@njit(cache=CACHE, error_model="numpy")
+def rollout_f(t, x, u, p, h, k, out):
+    # z with f blocks (AB_s): f at every sample once, z read from it, and the first
+    # step from each sample given its f (step_f): one f per sample for k = 1.
+    n, nx = x.shape
+    nz = KINDS.shape[0] * nx
+    ftab = np.empty((n, nx))
+    for i in range(n):
+        rhs(t[i], x[i], u[i], p, ftab[i])
+    za = np.empty(nz)
+    zb = np.empty(nz)
+    for r in range(k + HISTORY - 1, n):
+        m = r - k
+        for b in range(KINDS.shape[0]):
+            if KINDS[b] == 0:
+                for j in range(nx):
+                    za[b * nx + j] = x[m - LAGS[b], j]
+            else:
+                for j in range(nx):
+                    za[b * nx + j] = ftab[m - LAGS[b], j]
+        step_f(t[m], za, ftab[m], u[m], p, h, zb)
+        za, zb = zb, za
+        for j in range(1, k):
+            step(t[m + j], za, u[m + j], p, h, zb)
+            za, zb = zb, za
+        for j in range(nx):
+            out[r, j] = za[j]
+"""
+
 
 def _rule(method: Any) -> tuple[Any, tuple[tuple[str, int], ...]]:
     """The rule object and its state layout, or a ValueError saying why the rule is
@@ -142,12 +174,10 @@ def _module(model: Any, rule: Any, layout: tuple[tuple[str, int], ...]) -> tuple
             )
     kinds = [0 if kind == "x" else 1 for kind, _ in layout]
     lags = [int(lag) for _, lag in layout]
-    body = (
-        _BIND
-        + (_BIND_JAC if needs_jac else "")
-        + rule.step_source()
-        + _ROLLOUT.format(kinds=kinds, lags=lags, history=max(lags) + 1)
-    )
+    rollout = _ROLLOUT.format(kinds=kinds, lags=lags, history=max(lags) + 1)
+    if _uses_f_table(rule, layout):
+        rollout += _ROLLOUT_F
+    body = _BIND + (_BIND_JAC if needs_jac else "") + rule.step_source() + rollout
     rhs_line = kernel_import_line(rhs, "_rhs_kernel")
     jac_line = kernel_import_line(jac, "_jac_kernel") if needs_jac else ""
     if rhs_line is not None and jac_line is not None:
@@ -158,6 +188,16 @@ def _module(model: Any, rule: Any, layout: tuple[tuple[str, int], ...]) -> tuple
     if needs_jac:
         injected["_jac_kernel"] = jac
     return load_generated_module(_HEADER + body, kind="discrete", globals_=injected), p
+
+
+def _uses_f_table(rule: Any, layout: tuple[tuple[str, int], ...]) -> bool:
+    """True if a rollout over sampled data takes f from one table of f at the samples:
+    z holds f blocks, starts with x_n, and the rule's step takes f0 (``step_f``)."""
+    return (
+        any(kind == "f" for kind, _ in layout)
+        and layout[0] == ("x", 0)
+        and "def step_f(" in rule.step_source()
+    )
 
 
 def _check_h(h: Any) -> float:
@@ -295,7 +335,7 @@ class DiscreteModel:
             raise ValueError(f"`k` must be an integer >= 1 (steps ahead), got {k!r}.")
         mod = self._kernels()
         out = np.full((measured.n_samples, self.nx), np.nan)
-        fn = compiled_kernel(mod, "rollout")
+        fn = compiled_kernel(mod, "rollout_f" if hasattr(mod, "rollout_f") else "rollout")
         fn(
             np.ascontiguousarray(measured.t),
             np.ascontiguousarray(measured.x),

@@ -29,7 +29,6 @@ from types import MappingProxyType
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .._trajectory import Trajectory
 from ..methods import ab_filter, get_method, uniform_step
@@ -610,6 +609,8 @@ def _fit_weights(ctx: _Context, ab_weights: np.ndarray, p: float) -> EstimationR
 
 def _fit_joint(ctx: _Context, ab_weights: np.ndarray, lf: Any) -> EstimationResult:
     """Parameters and weights together (bilinear): least_squares, p = 2."""
+    from scipy.optimize import least_squares  # SciPy's optimisers load when a fit runs
+
     d = ctx.data
     s = len(ab_weights)
     n_free = len(ctx.free)
@@ -680,6 +681,8 @@ def _fit_joint(ctx: _Context, ab_weights: np.ndarray, lf: Any) -> EstimationResu
 
 def _fit_nonlinear(ctx: _Context, signal: Any) -> EstimationResult:
     """Any rule, any parameters: least_squares on the rule's one-step errors, p = 2."""
+    from scipy.optimize import least_squares
+
     d = ctx.data
     n_free = len(ctx.free)
     _check_count(ctx.n_rows, n_free, int(ctx.k.size), ctx.after)

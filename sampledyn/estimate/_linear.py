@@ -22,8 +22,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.optimize import linprog
 
 from ..methods import ConvergenceError
 
@@ -139,6 +137,9 @@ def _check_lp(res: object, what: str) -> np.ndarray:
 
 def _lp_l1(a: np.ndarray, r: np.ndarray) -> np.ndarray:
     """min sum |r - A z|: ``A z + s+ - s- = r``, ``s+-`` >= 0, minimise ``sum(s+ + s-)``."""
+    import scipy.sparse as sp  # here: SciPy's optimisers load only when they run
+    from scipy.optimize import linprog
+
     m, k = a.shape
     eye = sp.identity(m, format="csr")
     a_eq = sp.hstack([sp.csr_matrix(a), eye, -eye], format="csr")
@@ -150,6 +151,8 @@ def _lp_l1(a: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 def _lp_inf(a: np.ndarray, r: np.ndarray) -> np.ndarray:
     """min max |r - A z|: minimise tau with ``-tau <= r - A z <= tau``."""
+    from scipy.optimize import linprog
+
     m, k = a.shape
     ones = np.ones((m, 1))
     a_ub = np.vstack([np.hstack([a, -ones]), np.hstack([-a, -ones])])

@@ -161,9 +161,10 @@ def ab_filter_steps(x: np.ndarray, f: np.ndarray, hw: np.ndarray) -> np.ndarray:
     """
     n, nx = x.shape
     s = hw.shape[1]
-    out = np.full((n, nx), np.nan)
     if n <= s:
-        return out
+        return np.full((n, nx), np.nan)
+    out = np.empty((n, nx))
+    out[:s] = np.nan  # rows s.. are written by the filter
     _ab_fir(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(f, dtype=float),
@@ -219,7 +220,8 @@ def lagged_jacobians(lagged: list[np.ndarray], hw: np.ndarray, n: int, nx: int) 
 
 
 # z = (x_n, f_{n-1}, ..., f_{n-s+1}); the arithmetic of _ab_fir, so that one step from
-# the z of sampled data is the one-step prediction, bit for bit.
+# the z of sampled data is the one-step prediction, bit for bit. ``step_f`` is the step
+# given f0 = f(t, x_n, u) (a rollout over sampled data takes it from f at the samples).
 _AB_STEP = """
 S = {s}
 _W = np.array({w!r})
@@ -230,6 +232,12 @@ def step(t, z, u, p, h, out):
     nx = z.shape[0] // S
     f0 = np.empty(nx)
     rhs(t, z[:nx], u, p, f0)
+    step_f(t, z, f0, u, p, h, out)
+
+
+@njit(inline="always", error_model="numpy")
+def step_f(t, z, f0, u, p, h, out):
+    nx = z.shape[0] // S
     for j in range(nx):
         o = z[j]
         o += (h * _W[0]) * f0[j]

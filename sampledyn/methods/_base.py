@@ -55,7 +55,9 @@ ABj_s) also answer, for :func:`sampledyn.discretize`:
                        with the reason for a rule that is no such system (ABj_s)
 ``step_source()``      numba source of ``step(t, z, u, p, h, out)`` (the same arithmetic
                        as ``predict``), compiled by ``sampledyn.discretize`` against the
-                       model's kernel
+                       model's kernel; a rule whose z starts with x_n and whose step
+                       needs f only there also defines ``step_f(t, z, f0, u, p, h,
+                       out)``, the step given f0 = f(t, x_n, u)
 ``step_blocks``        the same step in vector arithmetic (numpy or CasADi symbols)
 ``linearize``          (A_d, B_d) at (z, u), exact from df/dx and df/du
 ``steady_state``       z of a constant history at (x, u)
@@ -228,7 +230,7 @@ def uniform_stencils(data: Trajectory, width: int) -> np.ndarray:
 def fixed_step(data: Trajectory) -> float | None:
     """``data.h`` if ``data.t`` is uniform with that step (:func:`uniform_grid`), else
     None (then a rule predicts on the steps of :func:`time_steps`)."""
-    return float(data.h) if uniform_grid(data.t, data.h) else None
+    return float(data.h) if data.on_uniform_grid else None
 
 
 def grid_steps(data: Trajectory) -> tuple[float | None, np.ndarray]:

@@ -28,6 +28,7 @@ from ._base import (
     check_ratio,
     grid_steps,
     nan_rows,
+    sample_f,
     stage_inputs,
 )
 from ._registry import register_family
@@ -245,6 +246,11 @@ class RungeKutta(FixedRule):
         increment are formed by one compiled pass each (:func:`_combine`), in the order
         of the numpy expressions ``x_n + sum_j (h a_ij) k_j`` and ``x_n + h sum_i b_i k_i``
         (so blocks change no result).
+
+        With a ``cache``, a first stage at the sample itself (c_1 = 0, the classical
+        tableaux) is f at the samples, taken from (or put into) the cache that the
+        Adams rules share (:func:`sample_f`): the same numbers, one f evaluation per
+        sample fewer when a study predicts with both.
         """
         tab = self.tableau
         if data.n_samples < 2:
@@ -258,6 +264,8 @@ class RungeKutta(FixedRule):
         }
         a = [np.array([float(v) for v in tab.a[i][:i]]) for i in range(tab.stages)]
         b = np.array([float(v) for v in tab.b])
+        # k_1 = f(t_n, x_n, u_n) at c_1 = 0 (t_n + 0 h_n is t_n, the input the sampled one)
+        at_samples = sample_f(model, data, cache) if cache is not None and cs[0] == 0.0 else None
         out = np.empty(data.x.shape)
         out[0] = np.nan
         point = np.empty((min(RK_BLOCK, rows.size), data.nx))  # stage points, reused
@@ -266,6 +274,9 @@ class RungeKutta(FixedRule):
             xb, hb, pb = x0[blk], rows[blk], point[: blk.stop - lo]
             ks: list[np.ndarray] = []
             for i in range(tab.stages):
+                if i == 0 and at_samples is not None:
+                    ks.append(np.array(at_samples[blk]))  # writable, C-ordered
+                    continue
                 xi = _combine(xb, hb, a[i], tuple(ks), pb, False) if a[i].any() else xb
                 k = model.f(times[cs[i]][blk], xi, inputs[cs[i]][blk])
                 ks.append(np.require(k, dtype=float, requirements=("C", "W")))

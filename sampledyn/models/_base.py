@@ -277,6 +277,12 @@ class CompiledModel:
         """Initial state used by :func:`sampledyn.simulate` when none is given."""
         return np.zeros(self.nx)
 
+    def check_states(self, x: Any) -> None:
+        """Raise (or warn) for states outside the model's domain, as ``f`` and
+        ``jacobian`` do before they evaluate; the default accepts every state.
+        Composite models (:class:`~sampledyn.models.ClosedLoop`) call it when they
+        evaluate this model's kernels themselves. ``x`` shape (N, nx) or (nx,)."""
+
     def f(self, t: Any, x: Any, u: Any) -> np.ndarray:
         """Right-hand side ``f(t, x, u)``.
 

@@ -204,6 +204,14 @@ def check_pitch(
     theta = np.asarray(theta, dtype=float).ravel()
     if theta.size == 0:
         return False, 0.0
+    # Every |theta| clearly below both thresholds (the usual case, e.g. each stage of a
+    # prediction): |cos| is smallest at the largest |theta| (cos is even and decreasing
+    # on [0, 90 deg]), so that one angle decides, without an array of cosines.
+    # NaN or inf make the comparison false and take the full check below.
+    big = float(np.max(np.abs(theta)))
+    clear = min(90.0 - tolerance_deg, 90.0 if limit_deg is None else limit_deg)
+    if big < math.radians(clear) - 1e-6:
+        return _pitch_verdict(abs(math.cos(big)), big, 0, tolerance_deg, limit_deg)
     c = np.abs(np.cos(theta))
     if np.isnan(c).any():  # a NaN pitch (its f is NaN anyway) must not hide another row
         if np.isnan(c).all():

@@ -53,6 +53,7 @@ from ._rigid_body import (
 from ._vehicle_kernels import (
     batch_input_jac,
     pack_params,
+    vehicle_input_jac,
     vehicle_jac,
     vehicle_rhs,
     vehicle_switch,
@@ -683,6 +684,15 @@ class Vehicle(CompiledModel):
 
     def jacobian_kernel(self) -> tuple[Any, np.ndarray]:
         return vehicle_jac, self._p
+
+    def input_jacobian_kernel(self) -> tuple[Any, np.ndarray]:
+        """The compiled df/du of one state (:meth:`input_jacobian`) and ``p``."""
+        return vehicle_input_jac, self._p
+
+    def check_states(self, x: Any) -> None:
+        """Raise if some |theta| is within ``pitch_tolerance_deg`` of 90 deg, warn
+        beyond ``pitch_limit_deg`` (as :meth:`f` and :meth:`jacobian` do)."""
+        self._guard_x(x)
 
     def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
         """Switching values for :func:`sampledyn.simulate`: ``(sw, p, input_only)``.

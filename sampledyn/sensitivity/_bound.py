@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..errors import sum_of_squares
 from ..methods import fixed_step, stencil_steps
 from ..noise import NOISE_REFERENCE, noise_amplitudes
 from ._domain import Domain, check_vehicle, pitch_guard
@@ -249,8 +250,7 @@ def block_error_norms(errors: np.ndarray, state_units: Any = None) -> tuple[np.n
     eta, v = (ETA, V) if state_units is None else state_blocks(state_units)
     # The sum of squares as sampledyn.errors.error_norm forms it, so a bound built from
     # these norms and an error measured by the engine compare to the last bit.
-    a, b = e[:, eta], e[:, v]
-    return np.sqrt(np.einsum("ij,ij->i", a, a)), np.sqrt(np.einsum("ij,ij->i", b, b))
+    return np.sqrt(sum_of_squares(e, eta)), np.sqrt(sum_of_squares(e, v))
 
 
 def _nanmax(a: np.ndarray) -> float:

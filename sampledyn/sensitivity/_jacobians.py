@@ -46,7 +46,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ._domain import Domain, check_vehicle, pitch_guard
 
@@ -171,6 +170,8 @@ def dJ_norm(vehicle: Any, theta: Any, phi: float = 0.0) -> np.ndarray:  # noqa: 
     ndarray, shape (K,) (a 0-d array for a scalar theta); multiplied by ``||v||``
     (m/s, rad/s mixed) it bounds ``||df_eta/deta||`` (1/s).
     """
+    from scipy.optimize import minimize  # SciPy's optimisers load when they run
+
     check_vehicle(vehicle)
     th = np.atleast_1d(np.asarray(theta, dtype=float))
     pitch_guard(vehicle, np.degrees(th), "theta", stacklevel=3)
@@ -318,6 +319,8 @@ def _refine_angles(
     fun: Any, starts: list[tuple[float, float]], phi_max: float, theta_max: float
 ) -> tuple[float, tuple[float, float]]:
     """Local maximisation of ``fun(phi, theta)`` over the angle box from several starts."""
+    from scipy.optimize import minimize
+
     best = (-math.inf, (0.0, 0.0))
     bounds = [(-phi_max, phi_max), (-theta_max, theta_max)]
     for p0 in starts:

@@ -9,6 +9,7 @@ study of the package runs on it: sweeps, Figs. 2, 3 and 7, the Monte Carlo of
 from ._backends import DASK_WORKER_ENVIRON as DASK_WORKER_ENVIRON
 from ._backends import check_dask_workers as check_dask_workers
 from ._backends import local_cluster as local_cluster
+from ._backends import retain_freed_memory as retain_freed_memory
 from ._backends import worker_init as worker_init
 from ._compute import exact_samples as exact_samples
 from ._compute import prediction_inputs as prediction_inputs
@@ -78,6 +79,7 @@ __all__ = [
     "load_config",
     "load_results",
     "local_cluster",
+    "retain_freed_memory",
     "make_input",
     "motion_summary",
     "parse_norm",

@@ -236,6 +236,7 @@ class _Context:
         self._specs: dict[str, NormSpec] = {}
         self._masks: dict[NormSpec, np.ndarray | None] = {}
         self._clean: dict[str, np.ndarray] = {}
+        self.windows: dict[Any, Any] = {}  # samples counted per (t, mask): measure's
 
     def spec(self, norm: str) -> NormSpec:
         if norm not in self._specs:
@@ -294,7 +295,7 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
                     setup.model, method, measured, reference, ctx.signal
                 )
                 x_hat = predict(method, model, data, signal, cache=cache)
-                err = local_errors(x_hat, measured)
+                err = local_errors(x_hat, measured, out=x_hat if x_hat.flags.writeable else None)
                 specs = [ctx.spec(norm) for _key, norm in cells]
                 found = measure(
                     specs,
@@ -304,6 +305,7 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
                     measured.state_units,
                     ctx.masks(specs),
                     noise_err=_noise_part(ctx, method, err),
+                    windows=ctx.windows,
                 )
                 values = [(key, *found[ctx.spec(norm)]) for key, norm in cells]
             except CELL_ERRORS as exc:

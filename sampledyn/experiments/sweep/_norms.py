@@ -30,11 +30,12 @@ import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
-from ...errors import ERROR_NORMS, error_norms
+from ...errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
 from ...noise import NOISE_REFERENCE
 
 __all__ = [
@@ -262,6 +263,24 @@ def parse_norm(text: Any) -> NormSpec:
     return NormSpec(kind, part, kargs, units, mask, margs)
 
 
+@lru_cache(maxsize=64)
+def _groups(state_units: tuple[str, ...]) -> dict[str, Any]:
+    """:func:`component_groups`, shared (callers read it only)."""
+    groups = component_groups(state_units)
+    for comps in groups.values():
+        if isinstance(comps, np.ndarray):
+            comps.setflags(write=False)
+    return groups
+
+
+@lru_cache(maxsize=64)
+def _unit_groups(state_units: tuple[str, ...], units: tuple[str, ...]) -> dict[str, Any]:
+    """:func:`component_groups` restricted to the components in ``units`` (shared)."""
+    keep = np.isin(np.asarray(state_units), units)
+    n = len(state_units)
+    return {name: _restrict(c, keep, n) for name, c in _groups(state_units).items()}
+
+
 def component_groups(state_units: Sequence[str]) -> dict[str, Any]:
     """Index sets of the stored groups: "eta" (units m, rad), "v" (m/s, rad/s) and
     "all"; a contiguous set as a slice (numbers as with a slice of the array)."""
@@ -301,8 +320,7 @@ def _counts(
         if _empty(comps):
             over[name] = np.zeros(err.shape[0], dtype=bool)
             continue
-        e = err[:, comps]
-        sq = np.einsum("ij,ij->i", e, e)
+        sq = sum_of_squares(err, comps)
         keep &= ~np.isnan(sq)
         over[name] = np.sqrt(np.where(np.isnan(sq), 0.0, sq)) > limit
     if not keep.any():
@@ -322,6 +340,7 @@ def measure(
     state_units: Sequence[str],
     masks: Mapping[NormSpec, np.ndarray | None],
     noise_err: Callable[[], np.ndarray] | None = None,
+    windows: dict[Any, ErrorWindow] | None = None,
 ) -> dict[NormSpec, tuple[dict[str, float], str]]:
     """The numbers of every norm in ``specs`` for one rule on one measured trajectory.
 
@@ -341,14 +360,16 @@ def measure(
     noise_err : callable, optional
         Returns the noise contributions (disturbed minus undisturbed local errors);
         called only if a ``noise:`` norm is asked for.
+    windows : dict, optional
+        Kept by the caller across calls on the same ``t`` and masks (objects that stay
+        alive meanwhile): the samples each mask counts are found once.
 
     Returns
     -------
     dict spec -> ({"eta": value, "v": value, "all": value}, error message or "").
     A norm that has no sample to measure gets NaN and the reason.
     """
-    groups = component_groups(state_units)
-    n = len(state_units)
+    groups = _groups(tuple(state_units))
     out: dict[NormSpec, tuple[dict[str, float], str]] = {}
     # Norms over the same data, components and samples share one pass.
     batches: dict[tuple[Any, ...], list[NormSpec]] = {}
@@ -356,6 +377,7 @@ def measure(
         key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args)
         batches.setdefault(key, []).append(spec)
     noise_values: np.ndarray | None = None
+    windows = {} if windows is None else windows  # the samples the norms count
     for batch in batches.values():
         first = batch[0]
         if first.part == "noise":
@@ -368,8 +390,7 @@ def measure(
             data = err
         use = groups
         if first.units is not None:
-            keep = np.isin(np.asarray(state_units), first.units)
-            use = {name: _restrict(comps, keep, n) for name, comps in groups.items()}
+            use = _unit_groups(tuple(state_units), tuple(first.units))
         where = masks.get(first)
         try:
             if first.counts:
@@ -377,11 +398,15 @@ def measure(
                 out[first] = (values, "")
                 continue
             kinds = tuple(dict.fromkeys(s.kind for s in batch))
+            wkey = (id(t), id(where), after)
+            if wkey not in windows:
+                windows[wkey] = error_window(t, after, where)
+            window = windows[wkey]
             per_group = {
                 name: (
                     dict.fromkeys(kinds, math.nan)
                     if _empty(comps)
-                    else error_norms(data, t, kinds, after, comps, where)
+                    else window.norms(data, kinds, comps)
                 )
                 for name, comps in use.items()
             }
