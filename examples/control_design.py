@@ -18,7 +18,6 @@ rule; any rule with a discrete state works (E, AB<s>, ABu<s>, RK<s>, T).
 from __future__ import annotations
 
 import sys
-import warnings
 
 import control
 import numpy as np
@@ -32,9 +31,7 @@ vehicle_file = sys.argv[1] if len(sys.argv) > 1 else "rexrov"
 rule = sys.argv[2] if len(sys.argv) > 2 else "AB4"
 h = float(sys.argv[3]) if len(sys.argv) > 3 else 0.1
 
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore")  # the RexROV's published M_A is symmetric to 4 digits
-    vehicle = load_vehicle(vehicle_file).with_buoyancy(1.0)
+vehicle = load_vehicle(vehicle_file).with_buoyancy(1.0)
 
 # 1-2. trim: surge 0.5 m/s at 5 m depth, heading 0.5 rad
 x_star, u_star = trim(vehicle, surge=0.5, depth=5.0, heading=0.5)

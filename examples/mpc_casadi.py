@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import sys
 import time
-import warnings
 
 import casadi as ca
 import numpy as np
@@ -33,9 +32,7 @@ rule = sys.argv[1] if len(sys.argv) > 1 else "RK4"
 h = float(sys.argv[2]) if len(sys.argv) > 2 else 0.5
 N = int(sys.argv[3]) if len(sys.argv) > 3 else 10
 
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore")  # the RexROV's published M_A is symmetric to 4 digits
-    vehicle = load_vehicle("rexrov").with_buoyancy(1.0)
+vehicle = load_vehicle("rexrov").with_buoyancy(1.0)
 x_star, u_star = trim(vehicle, surge=0.5, depth=5.0, heading=0.5)
 model = sd.discretize(vehicle, rule, h)
 F = model.to_casadi()

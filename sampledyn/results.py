@@ -27,7 +27,9 @@ def load(path: str | os.PathLike[str], table: str = "cells", *, status: str | No
         The SQLite file.
     table : {"cells", "trajectories", "runs"}
         "cells": one row per cell (configuration columns, ``err_eta``, ``err_v``,
-        ``err_all``, ``status``, ``run_id``, ``computed_at``, ``config`` as JSON...);
+        ``err_all``, ``status``, ``run_id``, ``computed_at``, ``config`` as JSON,
+        ``kind``, and one column per named result of the controller studies, e.g.
+        ``depth_p95`` of ``reproduce closed-loop``...);
         "trajectories": the exact samples and their certificates; "runs": one row per
         sweep run (with what it computed, found stored, and left to other runs).
     status : {"ok", "error"}, optional

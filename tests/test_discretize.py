@@ -3,8 +3,6 @@ python-control and CasADi views, and the sampled loop against the exact plant.""
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 import sympy as sp
@@ -19,9 +17,7 @@ RULES = ("E", "AB2", "AB4", "ABu4", "RK4", "T")
 
 @pytest.fixture(scope="module")
 def rexrov():
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the published M_A asymmetry
-        return load_vehicle("rexrov").with_buoyancy(1.0)
+    return load_vehicle("rexrov").with_buoyancy(1.0)
 
 
 @pytest.fixture(scope="module")

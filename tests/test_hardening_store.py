@@ -151,7 +151,7 @@ def test_failed_runs_leave_no_store_file(tmp_path, capsys, monkeypatch):
     def crash(*args, **kwargs):
         raise RuntimeError("worker crashed")
 
-    monkeypatch.setattr(backends, "compute_chunk", crash)
+    monkeypatch.setattr(backends, "compute_cells", crash)
     with pytest.raises(RuntimeError, match="worker crashed"):
         run_sweep(write_sweep(tmp_path / "s.toml", h="[0.02]"), db)
     assert list(data.iterdir()) == []

@@ -5,7 +5,6 @@ input on its thrusters, and its open-loop motion."""
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest
@@ -52,9 +51,7 @@ FLU = np.diag([1.0, -1.0, -1.0])  # rotation by pi about x: ROS base_link <-> FR
 
 @pytest.fixture(scope="module")
 def rexrov() -> Vehicle:
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "vehicle file rexrov", UserWarning)
-        return load_vehicle("rexrov")
+    return load_vehicle("rexrov")
 
 
 def test_published_numbers(rexrov: Vehicle) -> None:

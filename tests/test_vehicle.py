@@ -165,9 +165,7 @@ def test_bad_matrix_arguments_name_the_argument(rov, argument, value, match) -> 
 
 # ---------------------------------------------------------------------- invariants
 def _rexrov() -> Vehicle:
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "vehicle file rexrov", UserWarning)
-        return load_vehicle("rexrov")
+    return load_vehicle("rexrov")
 
 
 INVARIANT_MODELS = (
@@ -642,11 +640,74 @@ def test_bad_damping_matrix_names_the_field(tmp_path, replace_with: str, match: 
         load_vehicle(path)
 
 
-def test_published_asymmetry_warns_naming_field_and_pair() -> None:
-    with pytest.warns(UserWarning) as record:
+_DECLARATION = ', symmetrised = { rule = "mean", rtol = 1e-3, pairs = [[2, 5, 10.774, 10.775]] }'
+
+
+def test_declared_asymmetry_loads_silently() -> None:
+    """The RexROV file states its source's printed-digit asymmetry and the rule: no
+    warning, and the matrix is the declared mean."""
+    assert _DECLARATION in REXROV_TEXT
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         model = load_vehicle("rexrov")
+    assert model.added_mass_matrix[2, 5] == model.added_mass_matrix[5, 2] == 0.5 * (10.774 + 10.775)
+
+
+def test_undeclared_asymmetry_warns_naming_field_and_pair(tmp_path) -> None:
+    path = write(tmp_path, REXROV_TEXT.replace(_DECLARATION, ""))
+    with pytest.warns(UserWarning) as record:
+        model = load_vehicle(path)
     messages = [str(w.message) for w in record]
     assert len(messages) == 1
     assert "field `hydrodynamics.added_mass`" in messages[0]
     assert "[2, 5] = 10.774 vs [5, 2] = 10.775 (difference 0.001, 9.3e-05 relative)" in messages[0]
+    assert "`symmetrised` declaration" in messages[0]  # says how to state it
     assert model.added_mass_matrix[2, 5] == model.added_mass_matrix[5, 2] == 0.5 * (10.774 + 10.775)
+    # the same matrix as with the declaration, to the last bit
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(
+            model.added_mass_matrix, load_vehicle("rexrov").added_mass_matrix
+        )
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "match"),
+    [
+        # the matrix changed, the declaration did not
+        ("10.775, 21.019", "10.7751, 21.019", r"declared asymmetry \[2, 5\] = 10.774 vs"),
+        # a second asymmetric pair (within the tolerance) that is not declared
+        ("[-7.8033, 62.726,", "[-7.8034, 62.726,", r"also asymmetric at \[0, 5\]"),
+        # beyond the tolerance: refused whatever the declaration says
+        ("10.775, 21.019", "10.875, 21.019", r"must be symmetric: \[2, 5\]"),
+        # a tighter declared tolerance than the pair's 9.3e-5
+        ('"mean", rtol = 1e-3,', '"mean", rtol = 1e-5,', r"more than the 1e-05 relative tol"),
+        (
+            '"mean", rtol = 1e-3,',
+            '"mean", rtol = 1e-2,',
+            r"symmetrised.rtol`: must be in \(0, 0.001",
+        ),
+        ('rule = "mean", rtol', 'rule = "upper", rtol', r"symmetrised.rule`: must be one of"),
+        ("[[2, 5, 10.774, 10.775]]", "[[5, 2, 10.775, 10.774]]", r"0 <= i < j < 6"),
+        ("[[2, 5, 10.774, 10.775]]", "[[2, 5, 10.774]]", r"pairs\[0\]`: must be \[i, j"),
+        ("[[2, 5, 10.774, 10.775]]", "[[2, 5, 10.774, 10.775], [0, 1, 1.0, 1.0]]", "not asym"),
+    ],
+)
+def test_bad_symmetrised_declaration_is_refused(tmp_path, old: str, new: str, match: str) -> None:
+    assert old in REXROV_TEXT
+    path = write(tmp_path, REXROV_TEXT.replace(old, new, 1))
+    with pytest.raises(ValueError, match=r"field `hydrodynamics.added_mass.*" + match):
+        load_vehicle(path)
+
+
+def test_symmetrised_declaration_only_on_symmetric_matrices(tmp_path) -> None:
+    start = BUILTIN_TEXT.index("linear_damping = {")
+    end = BUILTIN_TEXT.index("\n", start)
+    line = BUILTIN_TEXT[start:end].rstrip("} ") + _DECLARATION + " }"
+    with pytest.raises(ValueError, match="`hydrodynamics.linear_damping`.*applies to"):
+        load_vehicle(write(tmp_path, BUILTIN_TEXT[:start] + line + BUILTIN_TEXT[end:]))
+    start = BUILTIN_TEXT.index("added_mass = {")
+    end = BUILTIN_TEXT.index("\n", start)
+    line = BUILTIN_TEXT[start:end].rstrip("} ") + _DECLARATION + " }"
+    with pytest.raises(ValueError, match="`hydrodynamics.added_mass`.*this is a diagonal"):
+        load_vehicle(write(tmp_path, BUILTIN_TEXT[:start] + line + BUILTIN_TEXT[end:]))

@@ -36,20 +36,19 @@ _COMMON = {
     "figure", "out", "h", "T", "after", "seed", "methods", "norm", "no_progress", "store",
     "workers", "scheduler",
 }  # fmt: skip
-_ENGINE = {"store", "workers", "scheduler"}
 _USES = {
     "fig2": _COMMON | {"ratios"},
     "fig3": _COMMON | {"ratios"},
-    "fig7": _COMMON | {"seeds", "vehicle", "attitude_hold"},
-    # The controller studies run their own loops (not on the engine): no store/workers.
-    "closed-loop": _COMMON - _ENGINE | {"seeds", "vehicle"},
-    "multistep": _COMMON - _ENGINE | {"seeds", "vehicle"},
+    "fig7": _COMMON | {"seeds", "vehicle", "attitude_hold", "hold_gains"},
+    "closed-loop": _COMMON | {"seeds", "vehicle"},
+    "multistep": _COMMON | {"seeds", "vehicle"},
 }
 _FLAGS = {
     "ratios": "--ratios",
     "seeds": "--seeds",
     "vehicle": "--vehicle",
     "attitude_hold": "--attitude-hold/--no-attitude-hold",
+    "hold_gains": "--hold-gains",
     "store": "--store",
     "workers": "--workers",
     "scheduler": "--scheduler",
@@ -97,15 +96,6 @@ def _engine(args: argparse.Namespace, default_workers: int | None) -> dict[str, 
             f"the finished cells are in {args.store}; rerun the same command to compute the rest"
         )
     return out
-
-
-def _ran(summary: Any, store: str | None) -> str:
-    """What the engine did, in one line."""
-    where = f" (store {store})" if store else ""
-    return (
-        f"{summary.planned} cells: {summary.computed} computed, {summary.skipped} found "
-        f"stored{where}, in {summary.wall_seconds:.1f} s ({summary.backend})"
-    )
 
 
 def _missing_notes(rows: list[dict[str, Any]]) -> list[str]:
@@ -180,6 +170,21 @@ def _auv_figure(args: argparse.Namespace) -> int:
     return 0
 
 
+def _hold_gains(args: argparse.Namespace) -> tuple[float | None, float | None]:
+    """(kp, kd) of ``--hold-gains KP,KD``, checked (None, None without it)."""
+    if args.hold_gains is None:
+        return None, None
+    if len(args.hold_gains) != 2 or not all(math.isfinite(g) and g > 0 for g in args.hold_gains):
+        raise ValueError(
+            "`--hold-gains` must be two numbers > 0, KP (N m/rad) and KD (N m s/rad), e.g. "
+            f"--hold-gains 16000,7200; got {','.join(f'{g:g}' for g in args.hold_gains)}."
+        )
+    if args.attitude_hold is False:
+        refuse("--hold-gains sets the gains of the attitude hold, which --no-attitude-hold "
+               "switches off; give one or the other.")  # fmt: skip
+    return args.hold_gains
+
+
 def _fig7(args: argparse.Namespace) -> int:
     from ..experiments import FIG7_NORMS, ROVStudy
 
@@ -196,6 +201,7 @@ def _fig7(args: argparse.Namespace) -> int:
 
         with option("--vehicle"):
             load_vehicle(args.vehicle)
+    kp, kd = _hold_gains(args)
     study = ROVStudy(
         vehicle=args.vehicle,
         T=args.T,
@@ -205,8 +211,10 @@ def _fig7(args: argparse.Namespace) -> int:
         seeds=args.seeds,
         base_seed=args.seed,
         attitude_hold=args.attitude_hold,
+        kp=kp,
+        kd=kd,
     )
-    with option("--vehicle"):
+    with option("--hold-gains" if args.hold_gains else "--vehicle"):
         config = study.config()
     out = writable_dir(args.out or "out/fig7", "--out")
     engine = _engine(args, 2)
@@ -229,7 +237,7 @@ def _fig7(args: argparse.Namespace) -> int:
         f"T={config.T:g} s, errors t>={config.after:g} s, {len(config.seeds)} seeds"
     )
     png = plot_fig7(summary, out / "fig7.png", norm=norm, title=title)
-    print(f"fig7: {config.vehicle}, {loop}; {_ran(result['summary'], args.store)}")
+    print(f"fig7: {config.vehicle}, {loop}; {result['summary'].describe(args.store)}")
     for h, cert in result["certificates"].items():
         mo = result["motion"].get(h, {})
         print(
@@ -294,17 +302,22 @@ def _discrete_studies(args: argparse.Namespace) -> int:
 
     study: Any = (ex.ClosedLoopStudy if closed else ex.MultistepStudy)(**kwargs)
     out = writable_dir(args.out or f"out/{args.figure}", "--out")
+    engine = _engine(args, 2)
     out.mkdir(parents=True, exist_ok=True)
-    say = (lambda text: print(text, flush=True)) if progress(args) else None
+
+    def say(text: str) -> None:
+        print(f"{args.figure}: {text}", flush=True)
+
+    run = {"progress": say, "progress_bar": progress(args), **engine}
     if closed:
-        rows = ex.run_closed_loop_study(study, progress=say)
+        rows = ex.run_closed_loop_study(study, **run)
         summary = ex.summarize_closed_loop(rows)
         table, png = (
             rp.closed_loop_table(summary),
             rp.plot_closed_loop(summary, out / "closed_loop.png"),
         )
     else:
-        rows = ex.run_multistep_study(study, progress=say)
+        rows = ex.run_multistep_study(study, **run)
         summary = ex.summarize_multistep(rows)
         table, png = rp.multistep_table(summary), rp.plot_multistep(summary, out / "multistep.png")
     stem = args.figure.replace("-", "_")
@@ -345,8 +358,9 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
             "the RexROV, open loop as in the paper (--vehicle to choose; the BlueROV2 Heavy "
             "runs with a roll-pitch hold, see --attitude-hold), printed in the paper's "
             "layout next to its numbers. "
-            "fig2, fig3 and fig7 run on the experiment engine: --store keeps the cells in a "
-            "results store, so a killed run resumes and `sampledyn report` renders it. "
+            "Every study runs on the experiment engine: --store keeps the cells in a "
+            "results store, so a killed run resumes and `sampledyn results`/`report` read it; "
+            "--workers and --scheduler choose where the cells are computed. "
             "closed-loop: the same discrete LQR (depth/heading/surge hold) designed on each "
             "rule's discrete-time model (ZOH, E, AB2, AB4, ABu4, RK4, T), h in {0.1, 0.5}, "
             "run on the exact RexROV and BlueROV2 Heavy with thruster saturation and noise; "
@@ -412,7 +426,18 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         help="fig7 only: close a roll-pitch PD loop on the vertical thrusters, or not "
         "(--no-attitude-hold: the paper's open-loop input). Default: the vehicle's entry "
         "in the study table (sampledyn/experiments/studies/fig7.toml): the BlueROV2 Heavy "
-        "with the hold (open loop it tumbles), every other vehicle open loop",
+        "with the hold (open loop it tumbles), every other vehicle open loop. The hold's "
+        "gains are the vehicle's in that table (feedback_tuning: RexROV kp 16000, kd 7200; "
+        "BlueROV2 Heavy 40, 6; any other vehicle the law's 40, 6), or --hold-gains",
+    )
+    rep.add_argument(
+        "--hold-gains",
+        type=floats,
+        default=None,
+        metavar="KP,KD",
+        help="fig7 only: gains of the roll-pitch hold, KP in N m/rad and KD in N m s/rad "
+        "(> 0), instead of the study table's for the vehicle; the hold must be on (the "
+        "vehicle's default, or --attitude-hold)",
     )
     rep.add_argument(
         "--store",
@@ -424,7 +449,8 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         "--workers",
         type=int,
         default=None,
-        help="local worker processes (fig7 default 2; fig2/3: in this process)",
+        help="local worker processes (fig7, closed-loop, multistep: default 2; fig2/3: in "
+        "this process; 1: in this process)",
     )
     rep.add_argument(
         "--scheduler", default=None, help="address of a Dask scheduler, e.g. tcp://host:8786"

@@ -76,6 +76,19 @@ _TABLE_COLUMNS = [
 ]
 
 
+def _table_columns(df: Any) -> list[str]:
+    """The main columns of the cells table: the grid and the errors, the vehicle if
+    the store holds several, and the named results of the controller studies
+    (columns that are empty in every row are left out)."""
+    from ..experiments.sweep import CELL_COLUMNS
+
+    stored = {name for name, _type in CELL_COLUMNS}
+    cols = ["vehicle"] if df["vehicle"].nunique() > 1 else []
+    cols += [c for c in _TABLE_COLUMNS if c in df.columns]
+    cols += [c for c in df.columns if c not in stored]
+    return [c for c in cols if df[c].notna().any()] or cols
+
+
 def _cmd_results(args: argparse.Namespace) -> int:
     if args.format == "parquet" and not args.out:
         refuse("`--format parquet` needs `--out FILE`.")
@@ -98,7 +111,7 @@ def _cmd_results(args: argparse.Namespace) -> int:
         else:
             df.to_csv(sys.stdout, index=False)
     else:
-        cols = [c for c in _TABLE_COLUMNS if c in df.columns] if args.table == "cells" else None
+        cols = _table_columns(df) if args.table == "cells" else None
         text = df.to_string(columns=cols, index=False, float_format=lambda v: f"{v:.3e}")
         if out is not None:
             out.write_text(text + "\n")

@@ -1,7 +1,10 @@
 """The experiment layer: one engine (:mod:`sampledyn.experiments.sweep`: plan, one
 cell function, backends, store) and the studies built on it, the paper's Figs. 2-3
-and 7, the Monte Carlo of :func:`advise` and the bound validation
-(:func:`monte_carlo_check`, :func:`inertia_sensitivity`, :func:`sensitivity_study`)."""
+and 7, the Monte Carlo of :func:`advise`, the bound validation
+(:func:`monte_carlo_check`, :func:`inertia_sensitivity`, :func:`sensitivity_study`)
+and the controller studies (:func:`run_closed_loop_study`,
+:func:`run_multistep_study`, whose cells are of the kinds ``closed_loop`` and
+``multistep`` registered here)."""
 
 # The estimation layer registers its rules (Ee, ABe<s>) into the method registry; the
 # studies iterate the whole registry.
@@ -23,11 +26,15 @@ from ._bounds import inertia_sensitivity as inertia_sensitivity
 from ._bounds import measure_noisy as measure_noisy
 from ._bounds import monte_carlo_check as monte_carlo_check
 from ._bounds import reference_samples as reference_samples
+from ._closed_loop import CLOSED_LOOP as CLOSED_LOOP
+from ._closed_loop import ClosedLoopCells as ClosedLoopCells
 from ._closed_loop import ClosedLoopStudy as ClosedLoopStudy
 from ._closed_loop import design_lqr as design_lqr
 from ._closed_loop import run_closed_loop_study as run_closed_loop_study
 from ._closed_loop import summarize_closed_loop as summarize_closed_loop
 from ._closed_loop import trim as trim
+from ._multistep import MULTISTEP as MULTISTEP
+from ._multistep import MultistepCells as MultistepCells
 from ._multistep import MultistepStudy as MultistepStudy
 from ._multistep import run_multistep_study as run_multistep_study
 from ._multistep import summarize_multistep as summarize_multistep
@@ -50,10 +57,12 @@ from .sweep import motion_summary as motion_summary
 from .sweep import run_study as run_study
 
 __all__ = [
+    "CLOSED_LOOP",
     "DEFAULT_METHODS",
     "FIG7_NOISE_PAIRS",
     "FIG7_NORMS",
     "FIG7_STUDY_FILE",
+    "MULTISTEP",
     "PAPER_FIG7",
     "TIE",
     "AUVStudy",
@@ -61,7 +70,9 @@ __all__ = [
     "AdviceRow",
     "InertiaSensitivity",
     "MonteCarloRow",
+    "ClosedLoopCells",
     "ClosedLoopStudy",
+    "MultistepCells",
     "MultistepStudy",
     "ROVStudy",
     "SensitivityStudy",

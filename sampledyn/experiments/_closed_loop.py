@@ -16,10 +16,14 @@ A run that leaves the envelope (roll or pitch beyond 80 deg, a velocity beyond 5
 5 rad/s, depth 50 m off) stops there and is reported as diverged: such a loop tumbles
 or runs away, and integrating it exactly to the end would only cost time.
 
-The loop over designs is self-contained (no process pool of its own): one design
-costs a trim, a linearisation and a Riccati solution (milliseconds), one run a
-compiled loop of T/h sampling intervals with the control law evaluated in compiled
-code; the whole default grid runs in one process.
+The study runs on the experiment engine (:mod:`sampledyn.experiments.sweep`) with cells
+of kind ``closed_loop`` (:class:`ClosedLoopCells`): planned by the same planner (one
+plan per vehicle: h x noise pair x seed x design), computed in this process, on local
+workers or on Dask, and kept in a results store if one is given (a killed run
+resumes; ``sampledyn results`` and ``report`` read it). The trim is computed once per
+vehicle, the designs and one-step errors once per (vehicle, h) and shared by all
+the runs; one run is a compiled loop of T/h sampling intervals with the control law
+evaluated in compiled code.
 
 Frames: the state is (eta, v) = (x, y, z, phi, theta, psi, u, v, w, p, q, r) in NED /
 FRD (z down, depth = z). The positions x and y enter no other equation, so they are
@@ -28,17 +32,37 @@ removed from the design (every block of z), which is exact; they get zero gain.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..discretize import LinearLaw, discretize, run_loop
 from ..methods import get_method
+from .sweep import (
+    CELL_ERRORS,
+    CellKind,
+    ChunkResult,
+    SimResult,
+    SweepConfig,
+    SweepConfigError,
+    backend_options,
+    register_cell_kind,
+    run_study,
+    warning_text,
+    worker_name,
+)
 
 __all__ = [
+    "CLOSED_LOOP",
     "CLOSED_LOOP_METHODS",
+    "ClosedLoopCells",
     "ClosedLoopStudy",
     "design_lqr",
     "run_closed_loop_study",
@@ -55,6 +79,10 @@ _KEEP = tuple(range(2, 12))
 # one thruster (z, phi, theta, psi, u, v, w, p, q, r).
 _MAX_DEV = (0.5, 0.2, 0.2, 0.3, 0.2, 0.3, 0.3, 0.5, 0.5, 0.5)
 _MAX_RPM_FRAC = 0.5
+# The set point of the hold and the initial error (defaults of the study and of a
+# closed_loop sweep file).
+_SETPOINT = {"surge": 0.5, "depth": 5.0, "heading": 0.5}  # m/s, m, rad
+_OFFSET = {"depth": -0.5, "heading": -0.2}  # m, rad
 
 
 @dataclass(frozen=True)
@@ -83,6 +111,13 @@ class ClosedLoopStudy:
         Positive buoyancy in percent of the weight (the paper's +1 %).
     delay : bool
         Apply each command one sample late (designs then include the delay).
+    base_seed : int
+        Root of the noise seeds: seed k draws from SeedSequence([base_seed, k]).
+    distribution : str
+        Noise distribution, "uniform" (the paper's) or "gaussian".
+    rtol : float
+        Tolerance (relative and absolute) of the plant's exact integration between
+        samples; the residual sets measured are >= 1e-7.
     """
 
     vehicles: tuple[str, ...] = ("rexrov", "bluerov2_heavy")
@@ -92,13 +127,15 @@ class ClosedLoopStudy:
     seeds: int = 5
     T: float = 600.0
     transient: float = 100.0
-    surge: float = 0.5
-    depth: float = 5.0
-    heading: float = 0.5
-    offset: tuple[float, float] = (-0.5, -0.2)
+    surge: float = _SETPOINT["surge"]
+    depth: float = _SETPOINT["depth"]
+    heading: float = _SETPOINT["heading"]
+    offset: tuple[float, float] = (_OFFSET["depth"], _OFFSET["heading"])
     buoyancy_pct: float = 1.0
     delay: bool = False
     base_seed: int = 0
+    distribution: str = "uniform"
+    rtol: float = 1e-10
 
     def __post_init__(self) -> None:
         if not 0 <= self.transient < self.T:
@@ -271,16 +308,6 @@ def design_lqr(
     return Design(method, float(h), law, rho, rho_true)
 
 
-def _vehicle(name: str, buoyancy_pct: float) -> Any:
-    import warnings
-
-    from ..models import load_vehicle
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the RexROV's published M_A asymmetry, known
-        return load_vehicle(name).with_buoyancy(buoyancy_pct)
-
-
 # The envelope a run must stay in (deviation from the trim; x, y free): beyond it the
 # loop has diverged (tumbling, or running away in depth), and the run stops there.
 _ENVELOPE = (np.inf, np.inf, 50.0, 1.4, 1.4, np.inf, 5.0, 5.0, 5.0, 5.0, 5.0, 5.0)
@@ -291,23 +318,29 @@ def _envelope(x_trim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x_trim - dev, x_trim + dev
 
 
-def _run_rows(
-    study: ClosedLoopStudy, vehicle: Any, design: Design, x0: np.ndarray, x_trim: np.ndarray,
-    u_trim: np.ndarray, pair: tuple[float, float], seed: int,
-) -> dict[str, Any]:  # fmt: skip
+def _tracking(
+    vehicle: Any, law: LinearLaw, h: float, setup: Any, pair: tuple[float, float], seed: int
+) -> dict[str, float]:
+    """One run of ``law`` on the exact plant with the noise pair and seed: the residual
+    set after the transient and the effort (raises RuntimeError if it diverges)."""
+    data = setup.data
+    x_trim, u_trim = data["x_trim"], data["u_trim"]
     run = run_loop(
         vehicle,
-        design.law,
-        study.T,
-        design.h,
-        x0,
+        law,
+        setup.T,
+        h,
+        data["x0"],
         noise=pair if any(pair) else None,
-        seed=np.random.SeedSequence([study.base_seed, seed]),
+        seed=np.random.SeedSequence([setup.base_seed, seed]),
+        distribution=setup.distribution,
         envelope=_envelope(x_trim),
+        rtol=setup.rtol,
+        atol=setup.rtol,
     )
     t = run.exact.t
-    after = t >= study.transient
-    row: dict[str, Any] = {}
+    after = t >= setup.after
+    row: dict[str, float] = {}
     for idx, name, _unit in TRACKED:
         err = np.abs(run.exact.x[after, idx] - x_trim[idx])
         row[f"{name}_p95"] = float(np.percentile(err, 95))
@@ -318,17 +351,19 @@ def _run_rows(
     return row
 
 
-def _one_step_errors(
-    study: ClosedLoopStudy, vehicle: Any, h: float, x0: np.ndarray, x_trim: np.ndarray,
-    u_trim: np.ndarray,
-) -> dict[str, float]:  # fmt: skip
+def _one_step_errors(vehicle: Any, h: float, setup: Any) -> dict[str, float]:
     """How good each rule is as a one-step model on this loop's own motion: rms (over
     the transient, the states z..r) of its one-step prediction error on the exact
     samples of the noise-free loop of the ZOH design (the same data for every rule)."""
+    data = setup.data
+    x_trim, u_trim = data["x_trim"], data["u_trim"]
     ref = design_lqr(vehicle, "ZOH", h, x_trim, u_trim)
-    run = run_loop(vehicle, ref.law, study.transient, h, x0, envelope=_envelope(x_trim))
+    run = run_loop(
+        vehicle, ref.law, setup.after, h, data["x0"], envelope=_envelope(x_trim),
+        rtol=setup.rtol, atol=setup.rtol,
+    )  # fmt: skip
     out = {}
-    for method in study.methods:
+    for method in data["methods"]:
         if method == "ZOH":
             continue
         err = discretize(vehicle, method, h).rollout(run.exact, 1) - run.exact.x
@@ -337,52 +372,292 @@ def _one_step_errors(
     return out
 
 
-def run_closed_loop_study(
-    study: ClosedLoopStudy, progress: Callable[[str], None] | None = None
-) -> list[dict[str, Any]]:
-    """Every (vehicle, method, h, noise pair, seed) of ``study``: one row each.
+def _table(key: str, value: Any, defaults: dict[str, float]) -> dict[str, float]:
+    if not isinstance(value, dict):
+        raise SweepConfigError(
+            key, f"`{key}` must be a table of {', '.join(defaults)}, got {value!r}."
+        )
+    bad = sorted(set(value) - set(defaults))
+    if bad:
+        raise SweepConfigError(
+            key, f"`{key}` has no entry `{bad[0]}`; its entries: {', '.join(defaults)}."
+        )
+    out = {**defaults}
+    for name, v in value.items():
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise SweepConfigError(key, f"`{key}.{name}` must be a finite number, got {v!r}.")
+        out[name] = float(v)
+    return out
 
-    Row keys: vehicle, method, h, eta_pct, v_pct, seed, rho_design (closed-loop
-    spectral radius on the design model), rho_true (on the exact plant's zero-order-
-    hold linearisation), one_step_rms (the rule's one-step prediction error on the
-    noise-free transient of the ZOH design's loop; NaN for ZOH), depth/heading/surge
-    _p95 and _max (m, rad, m/s, after the transient), effort_rms (rms of the applied
-    rpm minus the trim, in n_max), saturated (fraction of thruster-samples at n_max),
-    status ("ok" or the failure, e.g. the loop diverged).
+
+class ClosedLoopCells(CellKind):
+    """The cells of the closed-loop study: one LQR design run against the exact plant.
+
+    Shared: the trim (once per study, on the client), and per h the LQR design on
+    every rule and each rule's one-step error on the ZOH loop's motion (once per h,
+    on one worker). A cell: one (rule, noise pair, seed) run of its design on the
+    exact plant (:func:`sampledyn.discretize.run_loop`), measured as the residual set
+    after the transient (``after``) and the effort; a diverged run is a result
+    (``outcome`` "diverged: ..."), not a failed cell.
+
+    Sweep-file keys of its own: ``setpoint = { surge = 0.5, depth = 5.0, heading =
+    0.5 }`` (m/s, m, rad), ``offset = { depth = -0.5, heading = -0.2 }`` (the initial
+    error, m and rad), ``delay = false`` (each command one sample late). ``methods``
+    may name ``ZOH``, the design on the exact zero-order-hold linearisation; ``rtol``
+    is the tolerance of the plant's integration between samples.
     """
-    rows: list[dict[str, Any]] = []
-    for vname in study.vehicles:
-        vehicle = _vehicle(vname, study.buoyancy_pct)
-        x_trim, u_trim = trim(vehicle, study.surge, study.depth, study.heading)
+
+    name = "closed_loop"
+    description = "the same discrete LQR designed on each rule's model, run on the exact plant"
+    uses = frozenset(
+        ("buoyancy_pct", "methods", "orders", "eta_pct", "v_pct", "noise", "seeds",
+         "base_seed", "distribution", "rtol")
+    )  # fmt: skip
+    option_keys = ("setpoint", "offset", "delay")
+    needs_input = False
+    subsample = False
+    measure_label = "measures"
+
+    def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
+        delay = options.get("delay", False)
+        if not isinstance(delay, bool):
+            raise SweepConfigError("delay", f"`delay` must be true or false, got {delay!r}.")
+        return {
+            "setpoint": _table("setpoint", options.get("setpoint", {}), _SETPOINT),
+            "offset": _table("offset", options.get("offset", {}), _OFFSET),
+            "delay": delay,
+        }
+
+    def check_method(self, name: str) -> None:
+        if name != "ZOH":
+            get_method(name)
+
+    def method_order(self, name: str) -> int | None:
+        return None if name == "ZOH" else int(get_method(name).order)
+
+    def measures(self, config: Any) -> tuple[str, ...]:
+        return ("tracking",)
+
+    def setup_data(self, config: Any, model: Any) -> dict[str, Any]:
+        sp, off = config.options["setpoint"], config.options["offset"]
+        x_trim, u_trim = trim(model, sp["surge"], sp["depth"], sp["heading"])
         x0 = x_trim.copy()
-        x0[2] += study.offset[0]
-        x0[5] += study.offset[1]
-        for h in study.h_values:
-            one_step = _one_step_errors(study, vehicle, h, x0, x_trim, u_trim)
-            for method in study.methods:
-                design = design_lqr(vehicle, method, h, x_trim, u_trim, delay=study.delay)
-                if progress is not None:
-                    progress(
-                        f"{vname} {method} h={h:g}: closed-loop spectral radius "
-                        f"{design.rho_design:.4f} on the design model, {design.rho_true:.4f} "
-                        "on the exact plant (linearised)"
-                    )
-                for pair in study.noise_pairs:
-                    for seed in range(study.seeds if any(pair) else 1):
-                        base = {
-                            "vehicle": vname, "method": method, "h": float(h),
-                            "eta_pct": float(pair[0]), "v_pct": float(pair[1]), "seed": seed,
-                            "rho_design": design.rho_design, "rho_true": design.rho_true,
-                            "one_step_rms": one_step.get(method, float("nan")),
+        x0[2] += off["depth"]
+        x0[5] += off["heading"]
+        return {
+            "x_trim": x_trim,
+            "u_trim": u_trim,
+            "x0": x0,
+            "methods": tuple(config.methods),
+            "delay": bool(config.options["delay"]),
+        }
+
+    def prepare(self, setup: Any, sim: Any) -> dict[str, SimResult]:
+        (traj_key, h, _k), = sim.members  # fmt: skip
+        data = setup.data
+        t0 = time.perf_counter()
+        designs: dict[str, dict[str, Any]] = {}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for method in data["methods"]:
+                try:
+                    d = design_lqr(
+                        setup.model, method, h, data["x_trim"], data["u_trim"],
+                        delay=data["delay"],
+                    )  # fmt: skip
+                    designs[method] = {
+                        "gain": d.law.gain, "z_ref": d.law.z_ref,
+                        "rho_design": d.rho_design, "rho_true": d.rho_true,
+                    }  # fmt: skip
+                except CELL_ERRORS as exc:
+                    designs[method] = {"error": f"LQR design failed: {type(exc).__name__}: {exc}"}
+            try:
+                one_step = _one_step_errors(setup.model, h, setup)
+            except CELL_ERRORS as exc:
+                one_step = {}
+                warnings.warn(f"one-step errors on the ZOH loop failed: {exc}", stacklevel=1)
+        summary = {
+            "one_step_rms": one_step,
+            "rho_design": {m: d["rho_design"] for m, d in designs.items() if "error" not in d},
+            "rho_true": {m: d["rho_true"] for m, d in designs.items() if "error" not in d},
+        }
+        meta = {
+            "h": h, "worker": worker_name(), "status": "ok", "error": "",
+            "seconds": time.perf_counter() - t0, "n_samples": int(round(setup.T / h)) + 1,
+            "certificate": math.nan, "simulated_h": h, "summary": summary,
+            "warnings": warning_text(caught),
+        }  # fmt: skip
+        shared = {"designs": designs, "one_step": one_step}
+        return {traj_key: SimResult(traj_key, None, meta, None, 0, shared)}
+
+    def compute(self, setup: Any, shared: SimResult, chunk: Any) -> ChunkResult:
+        vehicle, h, data = setup.model, chunk.h, setup.data
+        designs, one_step = shared.data["designs"], shared.data["one_step"]
+        laws: dict[str, LinearLaw] = {}
+        rows = []
+        for group in chunk.groups:
+            pair = (group.eta_pct, group.v_pct)
+            for key, method, _measure in group.cells:
+                t0 = time.perf_counter()
+                design = designs[method]
+                values: dict[str, Any] = {}
+                error = design.get("error", "")
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    if not error:
+                        values = {
+                            "rho_design": design["rho_design"], "rho_true": design["rho_true"],
+                            "one_step_rms": one_step.get(method, math.nan),
                         }  # fmt: skip
                         try:
-                            base |= _run_rows(
-                                study, vehicle, design, x0, x_trim, u_trim, pair, seed
-                            )
-                            base["status"] = "ok"
+                            if method not in laws:
+                                rule = "RK4" if method == "ZOH" else method
+                                model = discretize(vehicle, rule, h, delay=data["delay"])
+                                laws[method] = LinearLaw(
+                                    model, design["gain"], design["z_ref"], data["u_trim"]
+                                )
+                            values |= _tracking(vehicle, laws[method], h, setup, pair, group.seed)
+                            values["outcome"] = "ok"
                         except RuntimeError as exc:  # EnvelopeExceeded, IntegrationError
-                            base["status"] = f"diverged: {exc}"
-                        rows.append(base)
+                            values["outcome"] = f"diverged: {exc}"
+                        except CELL_ERRORS as exc:
+                            error = f"{type(exc).__name__}: {exc}"[:400]
+                rows.append(
+                    {
+                        "key": key, "status": "error" if error else "ok",
+                        "err_eta": math.nan, "err_v": math.nan, "err_all": math.nan,
+                        "seconds": time.perf_counter() - t0, "error": error,
+                        "warnings": warning_text(caught), "worker": worker_name(),
+                        "result": values,
+                    }
+                )  # fmt: skip
+        return ChunkResult(chunk.traj_key, shared.meta, rows)
+
+    def warm_up(self, setup: Any, h: float) -> None:
+        data = setup.data
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                ref = design_lqr(setup.model, "ZOH", h, data["x_trim"], data["u_trim"])
+                run_loop(setup.model, ref.law, h, h, data["x0"], rtol=setup.rtol)
+                for method in data["methods"]:
+                    if method != "ZOH":
+                        discretize(setup.model, method, h, delay=data["delay"])
+            except (*CELL_ERRORS, NotImplementedError):
+                pass  # a real failure is reported by the task that meets it
+
+
+CLOSED_LOOP = ClosedLoopCells()
+register_cell_kind(CLOSED_LOOP)
+
+
+def _config(study: ClosedLoopStudy, vehicle: str) -> SweepConfig:
+    """The engine's grid of ``study`` on one vehicle."""
+    return SweepConfig.from_mapping(
+        {
+            "kind": CLOSED_LOOP.name,
+            "vehicle": vehicle,
+            "buoyancy_pct": study.buoyancy_pct,
+            "T": study.T,
+            "after": study.transient,
+            "h": list(study.h_values),
+            "methods": list(study.methods),
+            "noise": [list(p) for p in study.noise_pairs],
+            "seeds": study.seeds,
+            "base_seed": study.base_seed,
+            "distribution": study.distribution,
+            "rtol": study.rtol,
+            "setpoint": {"surge": study.surge, "depth": study.depth, "heading": study.heading},
+            "offset": {"depth": study.offset[0], "heading": study.offset[1]},
+            "delay": study.delay,
+        },
+        base_dir=Path.cwd(),
+    )
+
+
+def study_order(study: Any) -> Callable[[dict[str, Any]], tuple[int, int, int, int]]:
+    """Sort key of an engine cell in a controller study's own order: h, method, noise
+    pair (as the study lists them), seed (the order of the rows the studies' own
+    loops wrote, which the engine's plan, h-noise-seed-method, is not)."""
+    hs = {float(h): i for i, h in enumerate(study.h_values)}
+    methods = {m: i for i, m in enumerate(study.methods)}
+    pairs = {(float(e), float(v)): i for i, (e, v) in enumerate(study.noise_pairs)}
+
+    def key(c: dict[str, Any]) -> tuple[int, int, int, int]:
+        return hs[c["h"]], methods[c["method"]], pairs[(c["eta_pct"], c["v_pct"])], c["seed"]
+
+    return key
+
+
+def _rows(vehicle: str, study: ClosedLoopStudy, cells: list[dict[str, Any]]) -> list[dict]:
+    """The engine's cells as the study's rows, in the study's order."""
+    out = []
+    for c in sorted(cells, key=study_order(study)):
+        r = c["result"]
+        row: dict[str, Any] = {
+            "vehicle": vehicle, "method": c["method"], "h": float(c["h"]),
+            "eta_pct": float(c["eta_pct"]), "v_pct": float(c["v_pct"]), "seed": int(c["seed"]),
+            "rho_design": r.get("rho_design", math.nan), "rho_true": r.get("rho_true", math.nan),
+            "one_step_rms": r.get("one_step_rms", math.nan),
+        }  # fmt: skip
+        if c["status"] != "ok":
+            row["status"] = f"error: {c.get('error') or 'failed'}"
+        elif r["outcome"] == "ok":
+            row |= {k: r[k] for k in _METRICS}
+            row["status"] = "ok"
+        else:
+            row["status"] = r["outcome"]
+        out.append(row)
+    return out
+
+
+def run_closed_loop_study(
+    study: ClosedLoopStudy,
+    progress: Callable[[str], None] | None = None,
+    *,
+    store: str | os.PathLike[str] | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress_bar: bool = False,
+) -> list[dict[str, Any]]:
+    """Every (vehicle, method, h, noise pair, seed) of ``study``: one row each,
+    computed on the experiment engine (one run per vehicle, cells of kind
+    ``closed_loop``).
+
+    Parameters
+    ----------
+    study : ClosedLoopStudy
+    progress : callable, optional
+        Called with one line per vehicle: what the engine computed and found stored.
+    store : path, optional
+        Results store: the cells are kept there, a rerun (after a kill) computes only
+        the missing ones, and ``sampledyn results`` / ``report`` read them.
+    workers : int, optional
+        Local worker processes (default: this process).
+    scheduler : str, optional
+        Address of a Dask scheduler instead.
+    progress_bar : bool
+        Show the engine's progress bar.
+
+    Returns
+    -------
+    list of dict
+        Row keys: vehicle, method, h, eta_pct, v_pct, seed, rho_design (closed-loop
+        spectral radius on the design model), rho_true (on the exact plant's
+        zero-order-hold linearisation), one_step_rms (the rule's one-step prediction
+        error on the noise-free transient of the ZOH design's loop; NaN for ZOH),
+        depth/heading/surge _p95 and _max (m, rad, m/s, after the transient),
+        effort_rms (rms of the applied rpm minus the trim, in n_max), saturated
+        (fraction of thruster-samples at n_max), status ("ok", "diverged: ..." when
+        the loop left the envelope, or "error: ..." when the design failed).
+    """
+    options = backend_options(workers, scheduler, progress_bar)
+    rows: list[dict[str, Any]] = []
+    for vehicle in study.vehicles:
+        result = run_study(_config(study, vehicle), store, **options)
+        if progress is not None:
+            progress(f"{vehicle}: {result.summary.describe(store)}")
+        rows += _rows(vehicle, study, result.cells)
     return rows
 
 

@@ -13,12 +13,22 @@ whole window. Errors: rms over the window of the Euclidean norm of the position/
 The BlueROV2 Heavy is left out: it pitches over open loop under the Fig. 6 input, and
 with its roll-pitch hold (a ClosedLoop) the implicit Tustin step has no compiled
 Jacobian kernel.
+
+The study runs on the experiment engine with cells of kind ``multistep``
+(:class:`MultistepCells`): the exact samples are simulated once per h and shared by
+every rule, noise pair and seed; the k = 1..K predictions and the free run of a rule
+on one noisy trajectory are its K + 1 cells, computed together.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,10 +36,28 @@ import numpy as np
 from ..discretize import discretize
 from ..methods import get_method
 from ..noise import add_noise
-from ..signals import fig6_thrusters
-from ..simulate import simulate
+from ._closed_loop import study_order
+from .sweep import (
+    CELL_ERRORS,
+    ChunkResult,
+    PredictionCells,
+    SimResult,
+    SweepConfig,
+    SweepConfigError,
+    backend_options,
+    register_cell_kind,
+    run_study,
+    warning_text,
+    worker_name,
+)
 
-__all__ = ["MultistepStudy", "run_multistep_study", "summarize_multistep"]
+__all__ = [
+    "MULTISTEP",
+    "MultistepCells",
+    "MultistepStudy",
+    "run_multistep_study",
+    "summarize_multistep",
+]
 
 
 @dataclass(frozen=True)
@@ -62,58 +90,171 @@ def _rms_norm(err: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(err * err, axis=1))))
 
 
+_FREE_RUN = "free run"
+
+
+def _horizon(measure: str) -> int:
+    """k of a measure "k=<k>" (0 for the free run)."""
+    return 0 if measure == _FREE_RUN else int(measure.partition("=")[2])
+
+
+class MultistepCells(PredictionCells):
+    """The cells of the multi-step study: k-step-ahead predictions and a free run.
+
+    Shared per h: the exact samples of the model under the input (as a prediction
+    study, but every h simulated on its own). A cell: one rule's k-step-ahead
+    predictions (:meth:`~sampledyn.discretize.DiscreteModel.rollout`, z from the noisy
+    data at n - k, k steps with the applied inputs) against the exact samples on
+    t >= after, for one noise pair and seed, or its free run over that window from
+    the noisy state at its start (measure "free run"). ``err_eta`` and ``err_v`` are
+    the rms over the window of the Euclidean norm of the eta and v parts of the error
+    (inf where not finite or beyond 1e100); ``result``: ``k`` (0 for the free run)
+    and ``diverged`` (an rms of 1e3 or more).
+
+    Sweep-file key of its own: ``horizon = 20`` (K: the measures are k = 1..K and the
+    free run).
+    """
+
+    name = "multistep"
+    description = "k-step-ahead predictions and free runs of each rule's discrete model"
+    uses = frozenset(
+        ("buoyancy_pct", "input", "methods", "orders", "eta_pct", "v_pct", "noise", "seeds",
+         "base_seed", "distribution", "rtol", "x0")
+    )  # fmt: skip
+    option_keys = ("horizon",)
+    subsample = False
+    measure_label = "horizons"
+
+    def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
+        K = options.get("horizon", 20)
+        if isinstance(K, bool) or not isinstance(K, int) or K < 1:
+            raise SweepConfigError("horizon", f"`horizon` must be an int >= 1, got {K!r}.")
+        return {"horizon": K}
+
+    def measures(self, config: Any) -> tuple[str, ...]:
+        return (*(f"k={k}" for k in range(1, config.options["horizon"] + 1)), _FREE_RUN)
+
+    def compute(self, setup: Any, shared: SimResult, chunk: Any) -> ChunkResult:
+        worker = worker_name()
+        rows: list[dict[str, Any]] = []
+        exact = shared.traj
+        start = int(round(setup.after / chunk.h))
+        for group in chunk.groups:
+            meas = None
+            if exact is not None:
+                seq = np.random.SeedSequence([setup.base_seed, group.seed])
+                meas = add_noise(
+                    exact, group.eta_pct, group.v_pct, seq, distribution=setup.distribution
+                )
+            by_method: dict[str, list[tuple[str, str]]] = {}
+            for key, method, measure in group.cells:
+                by_method.setdefault(method, []).append((key, measure))
+            for method, cells in by_method.items():
+                t0 = time.perf_counter()
+                found: dict[str, tuple[float, float]] = {}
+                error = "" if exact is not None else str(shared.meta.get("error", "failed"))
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    try:
+                        if meas is not None:
+                            dm = discretize(setup.model, method, chunk.h)
+                            for _key, measure in cells:
+                                found[measure] = _errors(dm, meas, exact, start, measure)
+                    except (*CELL_ERRORS, NotImplementedError) as exc:
+                        error = f"{type(exc).__name__}: {exc}"[:400]
+                msgs = warning_text(caught)
+                seconds = (time.perf_counter() - t0) / len(cells)
+                for key, measure in cells:
+                    pos, vel = found.get(measure, (math.nan, math.nan))
+                    result = {} if error else {
+                        "k": _horizon(measure), "diverged": not max(pos, vel) < 1e3
+                    }  # fmt: skip
+                    rows.append(
+                        {
+                            "key": key, "status": "error" if error else "ok",
+                            "err_eta": pos, "err_v": vel, "err_all": math.nan,
+                            "seconds": seconds, "error": error, "warnings": msgs,
+                            "worker": worker, "result": result,
+                        }
+                    )  # fmt: skip
+        return ChunkResult(chunk.traj_key, shared.meta, rows)
+
+
+def _errors(dm: Any, meas: Any, exact: Any, start: int, measure: str) -> tuple[float, float]:
+    """(eta, v) rms errors of the k-step-ahead predictions or the free run."""
+    k = _horizon(measure)
+    with np.errstate(all="ignore"):
+        if k:
+            err = dm.rollout(meas, k)[start:] - exact.x[start:]
+        else:
+            z0 = dm.state_from_data(meas, start)
+            run = dm.simulate(z0, meas.u[start:-1], float(meas.t[start]))[:, : dm.nx]
+            err = run - exact.x[start:]
+    return _rms_norm(err[:, :6]), _rms_norm(err[:, 6:])
+
+
+MULTISTEP = MultistepCells()
+register_cell_kind(MULTISTEP)
+
+
+def _config(study: MultistepStudy) -> SweepConfig:
+    return SweepConfig.from_mapping(
+        {
+            "kind": MULTISTEP.name,
+            "vehicle": study.vehicle,
+            "buoyancy_pct": study.buoyancy_pct,
+            "input": "fig6",
+            "T": study.T,
+            "after": study.after,
+            "h": list(study.h_values),
+            "methods": list(study.methods),
+            "noise": [list(p) for p in study.noise_pairs],
+            "seeds": study.seeds,
+            "base_seed": study.base_seed,
+            "horizon": study.K,
+        },
+        base_dir=Path.cwd(),
+    )
+
+
 def run_multistep_study(
-    study: MultistepStudy, progress: Callable[[str], None] | None = None
+    study: MultistepStudy,
+    progress: Callable[[str], None] | None = None,
+    *,
+    store: str | os.PathLike[str] | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress_bar: bool = False,
 ) -> list[dict[str, Any]]:
     """Rows (method, h, eta_pct, v_pct, seed, k, pos_rms, vel_rms, diverged); k = 0 is the
-    free run; ``diverged``: a non-finite or > 1e3 rms error."""
-    import warnings
+    free run; ``diverged``: a non-finite or > 1e3 rms error. Computed on the
+    experiment engine (cells of kind ``multistep``; ``store``, ``workers``,
+    ``scheduler``, ``progress_bar`` as :func:`sampledyn.experiments.
+    run_closed_loop_study`; ``progress`` gets one line: what the engine computed)."""
+    result = run_study(_config(study), store, **backend_options(workers, scheduler, progress_bar))
+    if progress is not None:
+        progress(f"{study.vehicle}: {result.summary.describe(store)}")
+    order = study_order(study)
+    rows = []
+    for c in result.cells:
+        k = _horizon(c["norm"])
+        rows.append(
+            (
+                (*order(c), k or study.K + 1),  # the free run (k = 0) last
+                {
+                    "method": c["method"], "h": float(c["h"]), "eta_pct": float(c["eta_pct"]),
+                    "v_pct": float(c["v_pct"]), "seed": int(c["seed"]), "k": k,
+                    "pos_rms": _stored(c["err_eta"]), "vel_rms": _stored(c["err_v"]),
+                    "diverged": bool(c["result"].get("diverged", True)),
+                },
+            )
+        )  # fmt: skip
+    return [row for _order, row in sorted(rows, key=lambda r: r[0])]
 
-    from ..models import load_vehicle
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the RexROV's published M_A asymmetry, known
-        vehicle = load_vehicle(study.vehicle).with_buoyancy(study.buoyancy_pct)
-    rows: list[dict[str, Any]] = []
-    for h in study.h_values:
-        exact = simulate(vehicle, fig6_thrusters(vehicle), study.T, h, certify=False)
-        start = int(round(study.after / h))
-        for method in study.methods:
-            dm = discretize(vehicle, method, h)
-            if progress is not None:
-                progress(f"{method} h={h:g}")
-            for pair in study.noise_pairs:
-                for seed in range(study.seeds if any(pair) else 1):
-                    meas = add_noise(
-                        exact, pair[0], pair[1], np.random.SeedSequence([study.base_seed, seed])
-                    )
-                    base = {
-                        "method": method, "h": float(h), "eta_pct": float(pair[0]),
-                        "v_pct": float(pair[1]), "seed": seed,
-                    }  # fmt: skip
-                    for k in range(1, study.K + 1):
-                        with np.errstate(all="ignore"):
-                            err = dm.rollout(meas, k)[start:] - exact.x[start:]
-                        pos, vel = _rms_norm(err[:, :6]), _rms_norm(err[:, 6:])
-                        rows.append(
-                            base
-                            | {
-                                "k": k,
-                                "pos_rms": pos,
-                                "vel_rms": vel,
-                                "diverged": not max(pos, vel) < 1e3,
-                            }  # fmt: skip
-                        )
-                    z0 = dm.state_from_data(meas, start)
-                    with np.errstate(all="ignore"):
-                        run = dm.simulate(z0, meas.u[start:-1], float(meas.t[start]))[:, : dm.nx]
-                        err = run - exact.x[start:]
-                    pos, vel = _rms_norm(err[:, :6]), _rms_norm(err[:, 6:])
-                    diverged = not max(pos, vel) < 1e3
-                    rows.append(
-                        base | {"k": 0, "pos_rms": pos, "vel_rms": vel, "diverged": diverged}
-                    )
-    return rows
+def _stored(value: Any) -> float:
+    """A stored error (SQLite keeps NaN as NULL)."""
+    return math.nan if value is None else float(value)
 
 
 def summarize_multistep(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:

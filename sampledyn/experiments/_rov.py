@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .sweep import SweepConfig, run_study
+from .sweep import SweepConfig, backend_options, run_study
 
 __all__ = [
     "FIG7_STUDY_FILE",
@@ -92,7 +92,9 @@ class ROVStudy:
         Fig. 6 rpm plus the loop's correction, and the measured input is that applied
         rpm.
     kp, kd : float or None
-        Gains of the hold (N m/rad, N m s/rad); None: the table's, else 40 and 6.
+        Gains of the hold (N m/rad, N m s/rad); None: the study table's for the
+        vehicle (``feedback_tuning``: RexROV 16000 and 7200, BlueROV2 Heavy 40 and 6),
+        else the law's defaults (40 and 6).
     rtol : float
         Tolerance of the exact samples (atol the same).
     """
@@ -144,7 +146,8 @@ class ROVStudy:
         return SweepConfig.from_mapping(data, base_dir=base)
 
     def _feedback(self, data: dict[str, Any]) -> Any:
-        """The ``feedback`` entry the switches ask for (None: the table decides)."""
+        """The ``feedback`` entry the switches ask for (None: the table decides). Gains
+        not given here come from the table's ``feedback_tuning`` for the vehicle."""
         vehicle = str(data["vehicle"])
         table = data.get("per_vehicle", {})
         entry = table.get(vehicle) or table.get(Path(vehicle).stem) or {}
@@ -243,12 +246,7 @@ def run_rov_study(
     if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise ValueError(f"`workers` must be a positive int, got {workers!r}.")
     cfg = study.config() if isinstance(study, ROVStudy) else study
-    options: dict[str, Any] = {"progress": progress}
-    if scheduler is not None:
-        options["scheduler"] = scheduler
-    elif workers is not None and workers > 1:
-        options["workers"] = workers
-    result = run_study(cfg, store, **options)
+    result = run_study(cfg, store, **backend_options(workers, scheduler, progress))
     norms = tuple(n for n in cfg.norms if n in NORMS) or NORMS
     certificates: dict[float, float] = {}
     motion: dict[float, dict[str, float]] = {}

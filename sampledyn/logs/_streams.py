@@ -97,7 +97,8 @@ def drop_before_first_command(have: np.ndarray, src: str) -> list[str]:
             "thrusters", f"{src}: no thruster command is stamped at or before any state sample."
         )
     dropped = int((~have).sum())
-    return [f"{dropped} state samples before the first command dropped"] if dropped else []
+    samples = "sample" if dropped == 1 else "samples"
+    return [f"{dropped} state {samples} before the first command dropped"] if dropped else []
 
 
 def nearest(

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
@@ -59,7 +59,7 @@ from ._vehicle_kernels import (
     vehicle_switch,
 )
 
-__all__ = ["SYMMETRY_RTOL", "Vehicle", "VehicleParameterError"]
+__all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "VehicleParameterError", "symmetrized"]
 
 _ETA_NAMES = ("x", "y", "z", "phi", "theta", "psi")
 _V_NAMES = ("u", "v", "w", "p", "q", "r")
@@ -84,8 +84,9 @@ QUADRATIC_IS_DIAGONAL = (
 
 # A published symmetric matrix (inertia tensor, added mass) is often symmetric only to
 # the digits it is printed with: the pair (i, j), (j, i) is replaced by its mean when
-# |A_ij - A_ji| <= SYMMETRY_RTOL max(|A_ij|, |A_ji|), with a warning; a larger
-# difference is refused. 1e-3 covers rounding in the 4th significant digit.
+# |A_ij - A_ji| <= SYMMETRY_RTOL max(|A_ij|, |A_ji|), with a warning unless the vehicle
+# file declares that pair (see `symmetrized`); a larger difference is refused. 1e-3
+# covers rounding in the 4th significant digit.
 SYMMETRY_RTOL = 1e-3
 
 # name -> (field, index): an int is entry i of a vector (the diagonal entry (i, i) of
@@ -165,17 +166,58 @@ def _frozen(a: np.ndarray) -> tuple[Any, ...]:
     return tuple(tuple(float(c) for c in row) for row in a)
 
 
-def _symmetrized(name: str, a: np.ndarray, stacklevel: int) -> np.ndarray:
-    """``a`` made exactly symmetric by the printed-digits rule of :data:`SYMMETRY_RTOL`.
+#: An asymmetric pair of a matrix: (i, j, A_ij, A_ji) with i < j (0-based).
+AsymmetricPair = tuple[int, int, float, float]
 
-    Raises VehicleParameterError naming the worst pair beyond the tolerance; warns
-    with every pair it averages.
+
+def symmetrized(
+    name: str,
+    a: np.ndarray,
+    *,
+    declared: Sequence[AsymmetricPair] | None = None,
+    rtol: float = SYMMETRY_RTOL,
+    stacklevel: int = 2,
+) -> np.ndarray:
+    """``a`` made exactly symmetric by the printed-digits rule: a pair (i, j), (j, i)
+    with |A_ij - A_ji| <= rtol max(|A_ij|, |A_ji|) is replaced by its mean, (A + A^T)/2.
+
+    Parameters
+    ----------
+    name : str
+        The argument (or field) the matrix came from, named in messages.
+    a : ndarray, shape (n, n)
+    declared : sequence of (i, j, A_ij, A_ji), optional
+        The asymmetric pairs the source of ``a`` is known to have (a vehicle file's
+        ``symmetrised`` declaration, i < j, 0-based): averaged without a warning. The
+        declaration must be exact: every declared pair holds those two values, and
+        ``a`` has no other asymmetric pair. None: every averaged pair is warned about.
+    rtol : float
+        Relative tolerance, at most :data:`SYMMETRY_RTOL`.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        The symmetric matrix (``a`` itself where it was symmetric).
+
+    Raises
+    ------
+    VehicleParameterError
+        Naming the worst pair beyond the tolerance (whether declared or not), a
+        declared pair that ``a`` does not hold, or an asymmetric pair a declaration
+        leaves out.
+
+    Warns
+    -----
+    UserWarning
+        Without a declaration, naming every pair it averages.
     """
+    if not 0 < rtol <= SYMMETRY_RTOL:
+        raise ValueError(f"`rtol` must be in (0, {SYMMETRY_RTOL:g}], got {rtol!r}.")
     diff = np.abs(a - a.T)
     scale = np.maximum(np.abs(a), np.abs(a.T))
     rows, cols = np.triu_indices(a.shape[0], 1)
     d, sc = diff[rows, cols], scale[rows, cols]
-    beyond = d > SYMMETRY_RTOL * sc
+    beyond = d > rtol * sc
     if beyond.any():
         k = int(np.argmax(np.where(beyond, d / np.where(sc > 0, sc, 1.0), -1.0)))
         i, j = int(rows[k]), int(cols[k])
@@ -183,23 +225,58 @@ def _symmetrized(name: str, a: np.ndarray, stacklevel: int) -> np.ndarray:
             name,
             f"`{name}` must be symmetric: [{i}, {j}] = {a[i, j]:.6g} and [{j}, {i}] = "
             f"{a[j, i]:.6g} differ by {d[k]:.3g} ({d[k] / sc[k]:.2g} relative), more than "
-            f"the {SYMMETRY_RTOL:g} relative tolerance for printed digits; correct the "
-            "matrix.",
+            f"the {rtol:g} relative tolerance for printed digits; correct the matrix.",
         )
-    pairs = np.flatnonzero(d > 0)
-    if pairs.size:
+    found = {(int(rows[k]), int(cols[k])): k for k in np.flatnonzero(d > 0)}
+    if declared is not None:
+        _check_declaration(name, a, found, declared)
+    elif found:
         shown = "; ".join(
-            f"[{rows[k]}, {cols[k]}] = {a[rows[k], cols[k]]:.6g} vs [{cols[k]}, {rows[k]}] = "
-            f"{a[cols[k], rows[k]]:.6g} (difference {d[k]:.3g}, {d[k] / sc[k]:.2g} relative)"
-            for k in pairs
+            f"[{i}, {j}] = {a[i, j]:.6g} vs [{j}, {i}] = {a[j, i]:.6g} (difference "
+            f"{d[k]:.3g}, {d[k] / sc[k]:.2g} relative)"
+            for (i, j), k in found.items()
         )
         warnings.warn(
             f"`{name}` is symmetric only to its printed digits: {shown}; within the "
-            f"{SYMMETRY_RTOL:g} relative tolerance, so the mean (A + A^T)/2 is used.",
+            f"{rtol:g} relative tolerance, so the mean (A + A^T)/2 is used (a vehicle "
+            "file states this with a `symmetrised` declaration, which silences this "
+            "warning).",
             UserWarning,
             stacklevel=stacklevel,
         )
-    return 0.5 * (a + a.T)
+    return 0.5 * (a + a.T) if found else a
+
+
+def _check_declaration(
+    name: str,
+    a: np.ndarray,
+    found: Mapping[tuple[int, int], Any],
+    declared: Sequence[AsymmetricPair],
+) -> None:
+    """The declared asymmetric pairs are exactly those of ``a``, with their values."""
+    n = a.shape[0]
+    listed = set()
+    for i, j, upper, lower in declared:
+        if not 0 <= i < j < n:
+            raise VehicleParameterError(
+                name, f"`{name}`: declared pair [{i}, {j}] must have 0 <= i < j < {n}."
+            )
+        if (a[i, j], a[j, i]) != (upper, lower):
+            raise VehicleParameterError(
+                name,
+                f"`{name}`: the declared asymmetry [{i}, {j}] = {upper:.6g} vs [{j}, {i}] = "
+                f"{lower:.6g} is not in the matrix, which has [{i}, {j}] = {a[i, j]:.6g} and "
+                f"[{j}, {i}] = {a[j, i]:.6g}; update the declaration with the matrix.",
+            )
+        listed.add((i, j))
+    missing = sorted(set(found) - listed)
+    if missing:
+        i, j = missing[0]
+        raise VehicleParameterError(
+            name,
+            f"`{name}` is also asymmetric at [{i}, {j}] = {a[i, j]:.6g} vs [{j}, {i}] = "
+            f"{a[j, i]:.6g}, which its declaration does not list; add the pair to it.",
+        )
 
 
 def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -385,7 +462,7 @@ class Vehicle(CompiledModel):
                 "inertia", f"`inertia` must be > 0, got {_frozen(inertia)}."
             )
         if inertia.ndim == 2:
-            inertia = _symmetrized("inertia", inertia, stacklevel=4)
+            inertia = symmetrized("inertia", inertia, stacklevel=4)
             eig = np.linalg.eigvalsh(inertia)
             if eig.min() <= 0:
                 raise VehicleParameterError(
@@ -396,7 +473,7 @@ class Vehicle(CompiledModel):
         put(self, "inertia", _frozen(inertia))
         added = _array("added_mass", self.added_mass, ((6,), (6, 6)))
         if added.ndim == 2:
-            added = _symmetrized("added_mass", added, stacklevel=4)
+            added = symmetrized("added_mass", added, stacklevel=4)
         put(self, "added_mass", _frozen(added))
         put(
             self,

@@ -17,6 +17,20 @@ Matrices are lists of rows: ``inertia`` a 3 x 3 tensor, ``added_mass`` and
 (see ``_SCHEMA``). No unit conversion is done: each number must carry the unit
 listed in ``_SCHEMA``. Every problem raises ValueError naming the field
 (``rigid_body.mass``, ``thruster[3].direction``, ``hydrodynamics.added_mass[2][5]``).
+
+A published inertia tensor or added-mass matrix that is symmetric only to its
+printed digits is averaged pair by pair ((A + A^T)/2, pairs within
+:data:`~sampledyn.models.SYMMETRY_RTOL` relative; larger differences are refused),
+with a warning, unless the file states it with a fourth key::
+
+    added_mass = { value = [...], unit = [...], source = "...",
+                   symmetrised = { rule = "mean", rtol = 1e-3,
+                                   pairs = [[2, 5, 10.774, 10.775]] } }
+
+``pairs`` lists every asymmetric pair of the printed matrix as [i, j, A_ij, A_ji]
+(0-based, i < j, the printed values), ``rule`` is "mean" (the only rule), ``rtol``
+(optional, at most 1e-3) the tolerance the file asks for. Loading is then silent; a
+declaration that no longer matches the matrix is refused, naming the pair.
 """
 
 from __future__ import annotations
@@ -31,7 +45,14 @@ from typing import Any
 
 import numpy as np
 
-from ._vehicle import QUADRATIC_IS_DIAGONAL, Vehicle, VehicleParameterError
+from ._vehicle import (
+    QUADRATIC_IS_DIAGONAL,
+    SYMMETRY_RTOL,
+    AsymmetricPair,
+    Vehicle,
+    VehicleParameterError,
+    symmetrized,
+)
 
 __all__ = ["builtin_vehicles", "load_vehicle"]
 
@@ -75,6 +96,8 @@ _THRUSTER: dict[str, dict[tuple[int, ...], _Units]] = {
 }
 _TOP = {"name", "description", "thruster", *_SCHEMA}
 _DAMPING = {"linear_damping", "quadratic_damping"}
+_SYMMETRIC = {"inertia", "added_mass"}  # matrices a `symmetrised` declaration applies to
+_RULES = ("mean",)
 
 
 def _fail(path: Any, fld: str, message: str) -> ValueError:
@@ -183,6 +206,62 @@ def _check_damping(path: Any, fld: str, value: Any) -> None:
         )
 
 
+def _declaration(path: Any, fld: str, arg: str, spec: Any) -> tuple[list[AsymmetricPair], float]:
+    """The pairs and tolerance of a ``symmetrised`` declaration (see the module
+    docstring), checked."""
+    if arg not in _SYMMETRIC:
+        raise _fail(
+            path, fld, "`symmetrised` applies to rigid_body.inertia and "
+            "hydrodynamics.added_mass only (symmetric matrices).",
+        )  # fmt: skip
+    where = f"{fld}.symmetrised"
+    if not isinstance(spec, dict) or set(spec) - {"rule", "rtol", "pairs"}:
+        raise _fail(
+            path, where, "must be a table { rule = \"mean\", rtol = 1e-3, pairs = "
+            f"[[i, j, A_ij, A_ji], ...] }} (rtol optional), got {spec!r}.",
+        )  # fmt: skip
+    if spec.get("rule") not in _RULES:
+        raise _fail(
+            path, f"{where}.rule", f"must be one of {list(_RULES)} ((A + A^T)/2 pair by "
+            f"pair), got {spec.get('rule')!r}.",
+        )  # fmt: skip
+    rtol = _number(path, f"{where}.rtol", spec.get("rtol", SYMMETRY_RTOL))
+    if not 0 < rtol <= SYMMETRY_RTOL:
+        raise _fail(
+            path, f"{where}.rtol", f"must be in (0, {SYMMETRY_RTOL:g}] (the largest "
+            f"relative difference a printed-digit rule may average), got {rtol!r}.",
+        )  # fmt: skip
+    raw = spec.get("pairs")
+    if not isinstance(raw, list) or not raw:
+        raise _fail(path, f"{where}.pairs", f"must be a non-empty list, got {raw!r}.")
+    pairs = []
+    for k, item in enumerate(raw):
+        at = f"{where}.pairs[{k}]"
+        ok = isinstance(item, list) and len(item) == 4
+        if not ok or any(isinstance(c, bool) or not isinstance(c, int) for c in item[:2]):
+            raise _fail(path, at, f"must be [i, j, A_ij, A_ji] (i, j integers), got {item!r}.")
+        upper, lower = _number(path, at, item[2]), _number(path, at, item[3])
+        if upper == lower:
+            raise _fail(path, at, f"[{item[0]}, {item[1]}] is declared but not asymmetric.")
+        pairs.append((int(item[0]), int(item[1]), upper, lower))
+    return pairs, rtol
+
+
+def _declared_symmetric(
+    path: Any, fld: str, arg: str, value: Any, pairs: list[AsymmetricPair], rtol: float
+) -> Any:
+    """The matrix of ``fld`` made symmetric by its declaration (silently)."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim != 2:
+        raise _fail(path, fld, "`symmetrised` declares the asymmetry of a matrix; this is "
+                    "a diagonal.")  # fmt: skip
+    try:
+        sym = symmetrized(arg, a, declared=pairs, rtol=rtol)
+    except VehicleParameterError as exc:
+        raise _fail(path, fld, str(exc)) from None
+    return tuple(tuple(float(c) for c in row) for row in sym)
+
+
 def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
     unknown = set(data) - _TOP
     if unknown:
@@ -213,7 +292,14 @@ def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
                 if required:
                     raise _fail(path, fld, "missing.")
                 continue
-            value, source = _quantity(path, fld, content[key], units)
+            entry = content[key]
+            declared = None
+            if isinstance(entry, dict) and "symmetrised" in entry:
+                entry = dict(entry)
+                declared = _declaration(path, fld, arg, entry.pop("symmetrised"))
+            value, source = _quantity(path, fld, entry, units)
+            if declared is not None:
+                value = _declared_symmetric(path, fld, arg, value, *declared)
             if arg in _DAMPING:
                 _check_damping(path, fld, value)
             kwargs[arg] = value

@@ -3,7 +3,9 @@ same tables, and PNG figures beside them (``figures/``), per study.
 
 A study is a set of cells that can be compared: same vehicle, input (and their
 fingerprints), T, error window, norm, noise distribution and library version. Cells
-of different studies are never averaged together.
+of different studies are never averaged together. The cells of the controller
+studies (cell kinds other than prediction: ``reproduce closed-loop``, ``multistep``)
+are reported as tables of their named results, means over seeds.
 
 The HTML page checks its own figures: a script marks every ``img.figure`` with its
 ``naturalWidth`` once the page has loaded, and sets ``data-figures`` and
@@ -20,6 +22,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from ..experiments.sweep import CELL_COLUMNS
 from ._sweep_figs import ab_orders, noise_label, plot_order, plot_ratio_maps
 
 __all__ = ["ReportFiles", "write_report"]
@@ -37,6 +40,10 @@ STUDY_COLUMNS = (
     "base_seed",
     "version",
 )
+
+# The study of a cell of another kind: its norm column holds the kind's measure
+# (several per study, e.g. the horizons k of a multistep study), its input is none.
+KIND_STUDY_COLUMNS = tuple(c for c in STUDY_COLUMNS if c not in ("norm", "input"))
 
 Block = tuple[Any, ...]
 
@@ -220,6 +227,99 @@ def _study_blocks(
     return blocks, figs
 
 
+def _complete_mean(values: Any) -> float:
+    """Mean over seeds, NaN unless every seed has a value (a diverged run has none)."""
+    v = values.astype(float)
+    return float(v.mean()) if len(v) and v.notna().all() else float("nan")
+
+
+def _kind_blocks(i: int, key: dict[str, Any], cells: Any, trajs: Any) -> list[Block]:
+    """A study of another cell kind: its named results, means over seeds per (h,
+    noise, method) (and per measure, pivoted, when it has several)."""
+    buoy = key.get("buoyancy_pct")
+    extra = "" if buoy is None or buoy != buoy else f", +{buoy:g} % buoyancy"
+    blocks: list[Block] = [
+        (
+            "h",
+            2,
+            f"Study {i}: {key['kind']} on {key['vehicle']}{extra}, T = {key['T']:g} s, "
+            f"measured on t >= {key['after']:g} s",
+        ),
+        (
+            "p",
+            f"{len(cells)} cells ({int((cells['status'] != 'ok').sum())} failed), "
+            f"{key['distribution']} noise, base seed {key['base_seed']}, library version "
+            f"{key['version']}; model fingerprint {key['model_fingerprint']}.",
+        ),
+    ]
+    if len(trajs):
+        rows = [
+            [f"{r.h:g}", str(r.status), f"{r.seconds:.2f}", (r.error or r.warnings or "")[:160]]
+            for r in trajs.sort_values("h").itertuples(index=False)
+        ]
+        heads = ["h (s)", "status", "shared part (s)", "messages"]
+        blocks.append(("table", "What the cells of each h share, computed once.", heads, rows))
+    ok = cells[cells["status"] == "ok"]
+    base = {n for n, _type in CELL_COLUMNS}
+    named = [c for c in ok.columns if c not in base and ok[c].notna().any() and _numeric(ok[c])]
+    quantities = [q for q in ("err_eta", "err_v") if ok[q].notna().any()] + named
+    measures = list(dict.fromkeys(ok["norm"]))
+    groups = ["h", "eta_pct", "v_pct", "method"]
+    order = {m: n for n, m in enumerate(dict.fromkeys(ok["method"]))}
+    if len(measures) > 1:
+        for q in quantities:
+            if ok.groupby("norm")[q].nunique(dropna=False).max() <= 1:
+                continue  # the same for every cell of a measure (e.g. its k)
+            means = ok.groupby([*groups, "norm"], sort=False)[q].agg(_complete_mean)
+            rows = []
+            for (h, e, v, m), _sub in sorted(
+                ok.groupby(groups, sort=False), key=lambda g: (g[0][0], g[0][1], g[0][2],
+                                                               order[g[0][3]])
+            ):  # fmt: skip
+                row = [f"{h:g}", noise_label(e, v), str(m)]
+                row += [_fmt(means.get((h, e, v, m, k), float("nan"))) for k in measures]
+                rows.append(row)
+            blocks.append(
+                (
+                    "table",
+                    f"{q}: mean over seeds per measure ('-': a seed without a value).",
+                    ["h (s)", "noise", "method", *measures],
+                    rows,
+                )
+            )
+    elif quantities:
+        rows = []
+        for (h, e, v, m), sub in sorted(
+            ok.groupby(groups, sort=False),
+            key=lambda g: (g[0][0], g[0][1], g[0][2], order[g[0][3]]),
+        ):
+            row = [f"{h:g}", noise_label(e, v), str(m), str(len(sub))]
+            row += [_fmt(_complete_mean(sub[q])) for q in quantities]
+            rows.append(row)
+        blocks.append(
+            (
+                "table",
+                f"{measures[0] if measures else 'results'}: mean over seeds ('-': a seed "
+                "without a value, e.g. a diverged run).",
+                ["h (s)", "noise", "method", "seeds", *quantities],
+                rows,
+            )
+        )
+    bad = cells[cells["status"] != "ok"]
+    if len(bad):
+        msgs = bad.groupby("error", dropna=False).size().sort_values(ascending=False)
+        rows = [[str(n), str(m)[:200]] for m, n in msgs.head(10).items()]
+        blocks.append(("table", "Failed cells by message (first 10).", ["cells", "error"], rows))
+    return blocks
+
+
+def _numeric(column: Any) -> bool:
+    """True for a column of numbers or booleans (a named result to average)."""
+    import numpy as np
+
+    return all(isinstance(x, int | float | np.number | np.bool_) for x in column.dropna())
+
+
 # -- rendering ---------------------------------------------------------------------
 
 _CSS = """
@@ -342,13 +442,23 @@ def write_report(
         ),
     ]
     figures: list[Path] = []
-    groups = cells.groupby(list(STUDY_COLUMNS), dropna=False, sort=False)
-    for i, (values, sub) in enumerate(groups, start=1):
+    kinds = cells["kind"].fillna("prediction") if "kind" in cells.columns else None
+    predicted = cells if kinds is None else cells[kinds == "prediction"]
+    others = cells.iloc[0:0] if kinds is None else cells[kinds != "prediction"]
+    i = 0
+    for values, sub in predicted.groupby(list(STUDY_COLUMNS), dropna=False, sort=False):
+        i += 1
         key = dict(zip(STUDY_COLUMNS, values, strict=True))
         tr = trajs[trajs["traj_key"].isin(set(sub["traj_key"]))]
         b, f = _study_blocks(i, key, sub, tr, fig_dir)
         blocks += b
         figures += f
+    columns = ["kind", *KIND_STUDY_COLUMNS]
+    for values, sub in others.groupby(columns, dropna=False, sort=False):
+        i += 1
+        key = dict(zip(columns, values, strict=True))
+        tr = trajs[trajs["traj_key"].isin(set(sub["traj_key"]))]
+        blocks += _kind_blocks(i, key, sub, tr)
     html_path = out / "index.html"
     md_path = out / "report.md"
     html_path.write_text(_html(title, blocks, out))

@@ -4,9 +4,10 @@ a Dask distributed cluster.
 Every backend takes an iterator of tasks (:class:`Chunk`) and pulls the next one only
 when it has room (a few per worker), so the caller can claim cells just before they
 are computed and a grid of any size streams through in bounded memory. Each backend
-yields :class:`ChunkResult`s as they finish; the exact samples of a simulation
-(:class:`SimPlan`) are computed once, when the first task of one of its trajectories
-arrives, and handed to all their tasks.
+yields :class:`ChunkResult`s as they finish; the shared part of a simulation
+(:class:`SimPlan`: the exact samples, for a prediction study; see
+:func:`prepare_shared`) is computed once, when the first task of one of its
+trajectories arrives, and handed to all their tasks.
 
 Local workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux,
 and a watchdog on the parent's pid everywhere), leave Ctrl-C to it, and are terminated
@@ -27,9 +28,8 @@ from collections.abc import Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
-from ...simulate import simulate
-from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
-from ._plan import Chunk, Setup, SimPlan
+from ._cells import Chunk, Setup, SimPlan, compute_cells, prepare_shared
+from ._compute import ChunkResult, SimResult
 
 __all__ = [
     "DASK_WORKER_ENVIRON",
@@ -73,9 +73,9 @@ def in_process(
     for chunk in tasks:
         if bundle_key != chunk.sim_key:
             bundle = {}  # free the previous samples first
-            bundle = simulate_trajectory(setup, sims[chunk.sim_key])
+            bundle = prepare_shared(setup, sims[chunk.sim_key])
             bundle_key = chunk.sim_key
-        yield compute_chunk(setup, bundle[chunk.traj_key], chunk)
+        yield compute_cells(setup, bundle[chunk.traj_key], chunk)
 
 
 # -- local worker processes -----------------------------------------------------------
@@ -137,18 +137,6 @@ def worker_init(parent: int) -> None:
     retain_freed_memory()
 
 
-def _warm_up(setup: Setup, h: float) -> None:
-    """Compile the simulator and f here once, before the workers fork from this
-    process and inherit the compiled code (numba compiles per process otherwise)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            traj = simulate(setup.model, setup.signal, T=h, h=h, x0=setup.x0)
-            setup.model.f(traj.t, traj.x, traj.u)
-        except (ValueError, ArithmeticError, RuntimeError):
-            pass  # a real failure is reported by the task that meets it
-
-
 def start_pool(setup: Setup, workers: int, warm_up_h: float | None = None) -> ProcessPoolExecutor:
     """A pool of ``workers`` processes, started now (see :func:`worker_init`).
 
@@ -160,7 +148,9 @@ def start_pool(setup: Setup, workers: int, warm_up_h: float | None = None) -> Pr
         raise ValueError(f"`workers` must be >= 1, got {workers}.")
     if sys.platform.startswith("linux"):
         if warm_up_h is not None:
-            _warm_up(setup, warm_up_h)
+            # Compile here once: the workers fork from this process and inherit the
+            # compiled code (numba compiles per process otherwise).
+            setup.kind.warm_up(setup, warm_up_h)
         ctx = multiprocessing.get_context("fork")
     else:  # pragma: no cover - platform dependent
         ctx = multiprocessing.get_context("spawn")
@@ -217,11 +207,11 @@ def local_processes(
 
     def start(key: str) -> None:
         if key not in bundles and key not in simulating.values():
-            simulating[pool.submit(simulate_trajectory, setup, sims[key])] = key
+            simulating[pool.submit(prepare_shared, setup, sims[key])] = key
 
     def submit(chunk: Chunk) -> None:
         sim = bundles[chunk.sim_key][chunk.traj_key]
-        running[pool.submit(compute_chunk, setup, sim, chunk)] = chunk.sim_key
+        running[pool.submit(compute_cells, setup, sim, chunk)] = chunk.sim_key
 
     while True:
         while not exhausted and len(running) + sum(map(len, parked.values())) < in_flight:
@@ -379,7 +369,7 @@ def dask_backend(
                     # samples of earlier ones while their tasks run, not longer.
                     bundle = {
                         chunk.sim_key: client.submit(
-                            simulate_trajectory,
+                            prepare_shared,
                             setup_f,
                             sims[chunk.sim_key],
                             key=f"sampledyn-sim-{run_id}-{chunk.sim_key[:16]}",
@@ -396,7 +386,7 @@ def dask_backend(
                         pure=False,
                     )
                 fut = client.submit(
-                    compute_chunk,
+                    compute_cells,
                     setup_f,
                     trajs[chunk.traj_key],
                     chunk,

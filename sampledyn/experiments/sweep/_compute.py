@@ -44,8 +44,8 @@ from ...models import ClosedLoop
 from ...noise import add_noise
 from ...predict import predict
 from ...simulate import IntegrationError, simulate
+from ._cells import Chunk, Group, Setup, SimPlan
 from ._norms import NormSpec, measure, parse_norm
-from ._plan import Chunk, Group, Setup, SimPlan
 from ._summaries import summarize_trajectory
 
 __all__ = [
@@ -68,7 +68,9 @@ class SimResult:
 
     ``traj`` holds what a log records (states and the plant input; in a closed loop
     the input the law applied); ``reference_u`` the reference input at the samples of
-    a closed loop (None in open loop); ``input_index`` the study input it came from.
+    a closed loop (None in open loop); ``input_index`` the study input it came from;
+    ``data`` what a study of another cell kind shares between the cells of the
+    trajectory (picklable).
     """
 
     traj_key: str
@@ -76,6 +78,7 @@ class SimResult:
     meta: dict[str, Any] = field(default_factory=dict)
     reference_u: np.ndarray | None = None
     input_index: int = 0
+    data: Any = None
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,8 @@ the values to cross::
                                  # or "auv_like" (eqs. (9)-(10))
     buoyancy_pct = 1.0           # optional, vehicles only: B = (1 + pct/100) W
     feedback = { law = "roll_pitch_hold", kp = 40.0, kd = 6.0 }   # optional closed loop
+    feedback_tuning = { roll_pitch_hold = { kp = 40.0, kd = 6.0 } }  # optional: a law's
+                                 # parameters when `feedback` names it without them
     input = "fig6"               # or a table: { name = "multilevel", hold = 0.1 },
                                  # or a list of them (crossed with h)
     T = 5000.0                   # s
@@ -26,7 +28,8 @@ the values to cross::
     max_cells = 1000000          # optional: refuse a bigger grid (default 1,000,000)
 
     [per_vehicle.bluerov2_heavy] # optional: settings that apply when `vehicle` is this
-    feedback = { law = "roll_pitch_hold", kp = 40.0, kd = 6.0 }
+    feedback = { law = "roll_pitch_hold" }
+    feedback_tuning = { roll_pitch_hold = { kp = 40.0, kd = 6.0 } }
 
 A norm is a string (:mod:`._norms`): ``rms``, ``max[rad]`` (Euler angles only),
 ``rms@away_from_jumps`` (only samples whose history holds no input jump), ...; every
@@ -34,7 +37,11 @@ cell stores it over the position/angle components, the rate components and all.
 
 A ``per_vehicle`` entry gives the keys that hold for one vehicle (the Fig. 7 study
 closes a roll-pitch loop on the BlueROV2 Heavy only); a key given at the top level
-wins over it.
+wins over it. A feedback law's gains depend on the vehicle, so ``feedback_tuning``
+(usually per vehicle) gives each law's parameters for it: a ``feedback`` that names
+the law takes them, its own parameters win, the law's defaults fill the rest (the
+Fig. 7 study tunes the roll-pitch hold for each vehicle this way, and
+``reproduce fig7 --attitude-hold`` switches it on with those gains).
 
 Nothing is enumerated here: a count of seeds stays a ``range`` and crossed
 ``eta_pct``/``v_pct`` lists stay a :class:`NoiseGrid`, so a grid of any size is read
@@ -52,7 +59,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ...methods import get_method
+from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
 from ._summaries import SUMMARIES
 
@@ -82,11 +89,13 @@ _KEYS = (
     "x0",
     "max_cells",
     "feedback",
+    "feedback_tuning",
     "rtol",
     "summaries",
     "per_vehicle",
 )
 _PER_VEHICLE_KEYS = tuple(k for k in _KEYS if k not in ("vehicle", "per_vehicle"))
+_ALWAYS = ("vehicle", "T", "after", "h", "max_cells", "per_vehicle")  # every kind's
 
 
 @dataclass(frozen=True)
@@ -171,6 +180,12 @@ class SweepConfig:
         Relative (and absolute) tolerance of the exact samples.
     summaries : tuple of str
         Numbers stored with each trajectory (:data:`SUMMARIES`).
+    kind : str
+        What a cell computes (:func:`sampledyn.experiments.sweep.available_cell_kinds`):
+        "prediction" (the default: one-step predictions measured by ``norms``),
+        "closed_loop" or "multistep" (the controller studies).
+    options : Mapping[str, Any]
+        The kind's own settings (checked by it; empty for a prediction study).
     model : object or None
         A model object instead of ``vehicle`` (from Python, not from a file).
     signals : tuple or None
@@ -199,6 +214,8 @@ class SweepConfig:
     feedback: Mapping[str, Any] | None = None
     rtol: float = 1e-12
     summaries: tuple[str, ...] = ()
+    kind: str = "prediction"
+    options: Mapping[str, Any] = field(default_factory=dict)
     model: Any = field(default=None, compare=False)
     signals: tuple[Any, ...] | None = field(default=None, compare=False)
     reference: Any = field(default=None, compare=False)
@@ -232,6 +249,7 @@ class SweepConfig:
             "feedback": None if self.feedback is None else dict(self.feedback),
             "rtol": self.rtol,
             "summaries": list(self.summaries),
+            **({} if self.kind == "prediction" else {"kind": self.kind, **self.options}),
         }
 
     @classmethod
@@ -335,9 +353,33 @@ def _inputs(data: Mapping[str, Any], src: str) -> tuple[dict[str, Any], ...]:
     return tuple(out)
 
 
+def _tuning(data: Mapping[str, Any], src: str) -> dict[str, dict[str, Any]]:
+    """``feedback_tuning``: law -> its parameters (names checked, finite numbers)."""
+    from ._inputs import check_feedback
+
+    raw = data.get("feedback_tuning", {})
+    if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
+        raise SweepConfigError(
+            "feedback_tuning",
+            f"`feedback_tuning`{_where(src)} must be a table of tables, one per feedback law, "
+            f"e.g. {{ roll_pitch_hold = {{ kp = 40.0, kd = 6.0 }} }}, got {raw!r}.",
+        )
+    for law, params in raw.items():
+        try:
+            check_feedback({"law": law, **params})
+        except ValueError as exc:
+            raise SweepConfigError(
+                "feedback_tuning", f"`feedback_tuning.{law}`{_where(src)}: {exc}"
+            ) from exc
+        for name, value in params.items():
+            _number(f"feedback_tuning.{law}.{name}", value, src)
+    return {law: dict(params) for law, params in raw.items()}
+
+
 def _feedback(data: Mapping[str, Any], src: str) -> dict[str, Any] | None:
     from ._inputs import check_feedback
 
+    tuning = _tuning(data, src)
     raw = data.get("feedback")
     if raw is None or raw == "none":
         return None
@@ -348,7 +390,8 @@ def _feedback(data: Mapping[str, Any], src: str) -> dict[str, Any] | None:
             f'{{ law = "roll_pitch_hold", kp = 40.0 }} or "none", got {raw!r}.',
         )
     try:
-        return check_feedback(raw)
+        # The law's tuning for this vehicle, then the parameters given with it.
+        return check_feedback({**tuning.get(str(raw.get("law")), {}), **raw})
     except ValueError as exc:
         raise SweepConfigError("feedback", f"`feedback`{_where(src)}: {exc}") from exc
 
@@ -378,9 +421,11 @@ def _summaries(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(raw))
 
 
-def _apply_per_vehicle(data: Mapping[str, Any], src: str) -> Mapping[str, Any]:
+def _apply_per_vehicle(
+    data: Mapping[str, Any], src: str, own: tuple[str, ...] = ()
+) -> Mapping[str, Any]:
     """``data`` with the ``per_vehicle`` entry of its vehicle merged in (top-level
-    keys win)."""
+    keys win); ``own`` are the cell kind's keys (also allowed per vehicle)."""
     table = data.get("per_vehicle")
     if table is None:
         return data
@@ -389,20 +434,21 @@ def _apply_per_vehicle(data: Mapping[str, Any], src: str) -> Mapping[str, Any]:
             "per_vehicle",
             f"`per_vehicle`{_where(src)} must be a table of tables, one per vehicle name.",
         )
+    valid = (*_PER_VEHICLE_KEYS, *own)
     for name, entry in table.items():
-        bad = sorted(set(entry) - set(_PER_VEHICLE_KEYS))
+        bad = sorted(set(entry) - set(valid))
         if bad:
             raise SweepConfigError(
                 "per_vehicle",
                 f"`per_vehicle.{name}`{_where(src)}: unknown key `{bad[0]}`; valid keys: "
-                f"{', '.join(_PER_VEHICLE_KEYS)}.",
+                f"{', '.join(valid)}.",
             )
     vehicle = str(data.get("vehicle", _DEFAULT_VEHICLE))
     entry = table.get(vehicle) or table.get(Path(vehicle).stem) or {}
     return {**entry, **{k: v for k, v in data.items() if k != "per_vehicle"}}
 
 
-def _methods(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
+def _methods(data: Mapping[str, Any], src: str, kind: CellKind) -> tuple[str, ...]:
     names: list[str] = []
     raw = data.get("methods", [])
     if isinstance(raw, str):
@@ -423,7 +469,7 @@ def _methods(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
         )
     for name in names:
         try:
-            get_method(name)
+            kind.check_method(name)
         except (ValueError, TypeError) as exc:
             raise SweepConfigError("methods", f"`methods`{_where(src)}: {exc}") from exc
     return tuple(dict.fromkeys(names))
@@ -473,13 +519,41 @@ def _seeds(data: Mapping[str, Any], src: str) -> Sequence[int]:
     )
 
 
+def _kind(data: Mapping[str, Any], src: str) -> CellKind:
+    name = data.get("kind", "prediction")
+    try:
+        return get_cell_kind(name)
+    except ValueError as exc:
+        raise SweepConfigError("kind", f"`kind`{_where(src)}: {exc}") from exc
+
+
+def _kind_keys(data: Mapping[str, Any], src: str, kind: CellKind) -> dict[str, Any]:
+    """Refuse the common keys the kind does not read; its own settings, checked."""
+    uses = set(_KEYS) if kind.uses is None else {*kind.uses, *_ALWAYS}
+    for key in (k for k in _KEYS if k in data and k not in uses):
+        raise SweepConfigError(
+            key,
+            f"`{key}`{_where(src)} does not apply to a {kind.name} study ({kind.description}); "
+            "remove it.",
+        )
+    own = {k: data[k] for k in kind.option_keys if k in data}
+    try:
+        return kind.check_options(own)
+    except (ValueError, TypeError) as exc:
+        key = exc.key if isinstance(exc, SweepConfigError) else "kind"
+        raise SweepConfigError(key, f"{str(exc).rstrip('.')}{_where(src)}.") from exc
+
+
 def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
-    unknown = sorted(set(data) - set(_KEYS))
+    kind = _kind(data, src)
+    valid = (*_KEYS, "kind", *kind.option_keys)
+    unknown = sorted(set(data) - set(valid))
     if unknown:
         raise SweepConfigError(
-            unknown[0], f"unknown key `{unknown[0]}`{_where(src)}; valid keys: {', '.join(_KEYS)}."
+            unknown[0], f"unknown key `{unknown[0]}`{_where(src)}; valid keys: {', '.join(valid)}."
         )
-    data = _apply_per_vehicle(data, src)
+    data = _apply_per_vehicle(data, src, kind.option_keys)
+    options = _kind_keys(data, src, kind)
     for key in ("T", "after", "h"):
         if key not in data:
             raise SweepConfigError(key, f"`{key}`{_where(src)} is required.")
@@ -520,14 +594,14 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
     rtol = _number("rtol", data.get("rtol", 1e-12), src, positive=True)
     return SweepConfig(
         vehicle=_vehicle(data, base, src),
-        inputs=_inputs(data, src),
+        inputs=_inputs(data, src) if kind.needs_input else (),
         T=T,
         after=after,
         h=hs,
-        methods=_methods(data, src),
+        methods=_methods(data, src, kind),
         noise=_noise(data, src),
         seeds=_seeds(data, src),
-        norms=_norms(data, src),
+        norms=_norms(data, src) if kind.uses is None or "norm" in kind.uses else (),
         base_seed=base_seed,
         distribution=distribution,
         buoyancy_pct=None if buoy is None else _number("buoyancy_pct", buoy, src),
@@ -536,5 +610,7 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
         feedback=_feedback(data, src),
         rtol=rtol,
         summaries=_summaries(data, src),
+        kind=kind.name,
+        options=options,
         source=src,
     )

@@ -25,17 +25,25 @@ import hashlib
 import json
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ...methods import get_method
 from ...models import ClosedLoop
+from ._cells import (
+    Cell,
+    Chunk,
+    Group,
+    PlannedGroup,
+    Setup,
+    SimPlan,
+    cell_order,
+    get_cell_kind,
+)
 from ._config import SweepConfig
 from ._inputs import build_model, make_input
-from ._norms import NormSpec, parse_norm
+from ._norms import parse_norm
 
 __all__ = [
     "Cell",
@@ -47,7 +55,7 @@ __all__ = [
     "Study",
     "cell_order",
     "plan_study",
-]
+]  # the value types live in ._cells (re-exported here)
 
 SCHEMA = 2  # bump when the meaning of a stored number changes (2: subsampled h)
 
@@ -103,119 +111,6 @@ def model_label(config: SweepConfig) -> str:
     return label
 
 
-@lru_cache(maxsize=256)
-def cell_order(method: str) -> int:
-    """Order s of the registered method ``method`` (AB<s>, RK<s>: s; E: 1; T: 2; ...)."""
-    return int(get_method(method).order)
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One stored result: a method's error norm on one measured trajectory."""
-
-    key: str
-    traj_key: str
-    h: float
-    eta_pct: float
-    v_pct: float
-    seed: int
-    method: str
-    norm: str
-    config: str  # canonical JSON
-
-
-@dataclass(frozen=True)
-class Group:
-    """Cells on the same measured data: one noise pair and seed of one trajectory."""
-
-    eta_pct: float
-    v_pct: float
-    seed: int
-    cells: tuple[tuple[str, str, str], ...]  # (key, method, norm)
-
-
-@dataclass(frozen=True)
-class PlannedGroup:
-    """The cells of one (trajectory, noise pair, seed), as planned (client side)."""
-
-    traj_key: str
-    sim_key: str
-    h: float
-    eta_pct: float
-    v_pct: float
-    seed: int
-    cells: tuple[Cell, ...]
-
-    def task_group(self, keys: set[str] | None = None) -> Group:
-        """The :class:`Group` a worker computes: every cell, or those of ``keys``."""
-        cells = tuple(
-            (c.key, c.method, c.norm) for c in self.cells if keys is None or c.key in keys
-        )
-        return Group(self.eta_pct, self.v_pct, self.seed, cells)
-
-
-@dataclass(frozen=True)
-class Chunk:
-    """One task: some groups of one trajectory (``sim_key``: its simulation)."""
-
-    traj_key: str
-    h: float
-    groups: tuple[Group, ...]
-    sim_key: str = ""
-
-    @property
-    def n_cells(self) -> int:
-        return sum(len(g.cells) for g in self.groups)
-
-
-@dataclass(frozen=True)
-class SimPlan:
-    """One simulation: the exact samples of input ``input_index`` at period ``h``,
-    and the trajectories taken from it, ``members`` = ((traj_key, h, k), ...): every
-    k-th sample (k = 1 for the simulated period itself)."""
-
-    key: str
-    input_index: int
-    h: float
-    members: tuple[tuple[str, float, int], ...]
-
-
-@dataclass(frozen=True)
-class Setup:
-    """What every task needs besides its chunk (pickled to the workers).
-
-    ``model`` is what is simulated (a closed loop, if the study closes one); ``plant``
-    is the model the rules that use samples only predict with (the plant of a closed
-    loop, else ``model``); ``signals`` one per input; ``norms`` parsed.
-    """
-
-    model: Any
-    signals: tuple[Any, ...]
-    T: float
-    after: float
-    base_seed: int
-    distribution: str
-    x0: tuple[float, ...] | None = None
-    rtol: float = 1e-12
-    summaries: tuple[str, ...] = ()
-    norms: tuple[NormSpec, ...] = ()
-    reference: Any = None
-
-    @property
-    def signal(self) -> Any:
-        """The first input (most studies have one)."""
-        return self.signals[0]
-
-    @property
-    def closed_loop(self) -> bool:
-        """True if the model is a plant closed by a feedback law."""
-        return isinstance(self.model, ClosedLoop)
-
-    @property
-    def plant(self) -> Any:
-        return self.model.plant if self.closed_loop else self.model
-
-
 def _seeds_of(config: SweepConfig, eta: float, v: float) -> Sequence[int]:
     # The noise-free pair does not depend on the seed: it runs once.
     return config.seeds[:1] if eta == 0 and v == 0 else config.seeds
@@ -232,11 +127,12 @@ class Study:
     model_fingerprint: str
     input_fingerprints: tuple[str, ...]
     version: str
+    measures: tuple[str, ...] = ()  # the innermost dimension (norms of a prediction)
 
     @property
     def input_fingerprint(self) -> str:
-        """Fingerprint of the first input."""
-        return self.input_fingerprints[0]
+        """Fingerprint of the first input ("" for a study without an input)."""
+        return self.input_fingerprints[0] if self.input_fingerprints else ""
 
     def sim_of(self, traj_key: str) -> SimPlan:
         """The simulation a trajectory is taken from."""
@@ -256,7 +152,7 @@ class Study:
     @property
     def n_cells(self) -> int:
         """Cells in the grid, by arithmetic (instant for any size)."""
-        return self.n_groups * len(self.config.methods) * len(self.config.norms)
+        return self.n_groups * len(self.config.methods) * len(self.measures)
 
     def size_text(self) -> str:
         """The factors of :attr:`n_cells`, for messages."""
@@ -264,7 +160,8 @@ class Study:
         inputs = f"{len(cfg.inputs)} inputs x " if len(cfg.inputs) > 1 else ""
         return (
             f"{inputs}{len(cfg.h)} h x {len(cfg.noise)} noise pairs x {len(cfg.seeds)} seeds "
-            f"(1 for the noise-free pair) x {len(cfg.methods)} methods x {len(cfg.norms)} norms"
+            f"(1 for the noise-free pair) x {len(cfg.methods)} methods x {len(self.measures)} "
+            f"{self.setup.kind.measure_label}"
         )
 
     def iter_groups(self) -> Iterator[PlannedGroup]:
@@ -278,7 +175,7 @@ class Study:
                     for seed in _seeds_of(cfg, eta, v):
                         cells = []
                         for method in cfg.methods:
-                            for norm in cfg.norms:
+                            for norm in self.measures:
                                 cconf = {
                                     **tconf,
                                     "after": cfg.after,
@@ -367,6 +264,7 @@ def plan_study(config: SweepConfig) -> Study:
     """
     from ..._version import __version__
 
+    kind = get_cell_kind(config.kind)
     if config.model is not None:
         model = config.model
         if config.feedback is not None:
@@ -424,21 +322,26 @@ def plan_study(config: SweepConfig) -> Study:
     }
     if reference is not None:
         common["reference"] = _trajectory_fingerprint(reference)
+    if kind.name != "prediction":  # (prediction keys stay as they were before kinds)
+        common["kind"] = kind.name
+        common["options"] = dict(config.options)
     trajectories: dict[str, dict[str, Any]] = {}
     sims: dict[str, SimPlan] = {}
     base = None if reference is None else float(reference.h)
-    for i, (spec, ifp) in enumerate(zip(config.inputs, ifps, strict=True)):
-        for p, members in _simulation_periods(config.h, base):
-            sim_key = digest({**common, "input": dict(spec), "input_fingerprint": ifp, "p": p})
+    periods = (
+        _simulation_periods(config.h, base) if kind.subsample else [(h, [(h, 1)]) for h in config.h]
+    )
+    # A study without an input (a controller makes it) has one trajectory per h.
+    driven = [
+        {"input": dict(spec), "input_fingerprint": ifp}
+        for spec, ifp in zip(config.inputs, ifps, strict=True)
+    ]
+    for i, by_input in enumerate(driven or [{}]):
+        for p, members in periods:
+            sim_key = digest({**common, **by_input, "p": p})
             keyed = []
             for h, k in members:
-                t = {
-                    **common,
-                    "input": dict(spec),
-                    "input_fingerprint": ifp,
-                    "h": h,
-                    "simulated_h": p,
-                }
+                t = {**common, **by_input, "h": h, "simulated_h": p}
                 traj_key = digest(t)
                 trajectories[traj_key] = {**t, "sim_key": sim_key}
                 keyed.append((traj_key, h, k))
@@ -455,5 +358,8 @@ def plan_study(config: SweepConfig) -> Study:
         config.summaries,
         tuple(parse_norm(n) for n in config.norms),
         reference,
+        kind,
+        kind.setup_data(config, model),
     )
-    return Study(config, setup, trajectories, sims, mfp, ifps, __version__)
+    measures = tuple(kind.measures(config))
+    return Study(config, setup, trajectories, sims, mfp, ifps, __version__, measures)

@@ -38,12 +38,13 @@ from ._backends import (
 )
 from ._compute import ChunkResult
 from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
-from ._plan import Cell, Chunk, PlannedGroup, Study, cell_order, plan_study
+from ._plan import Cell, Chunk, PlannedGroup, Study, plan_study
 from ._store import Claim, ResultStore, inspect_store
 
 __all__ = [
     "LEASE_SECONDS",
     "StudyResult",
+    "backend_options",
     "SweepSummary",
     "check_grid_size",
     "run_study",
@@ -105,6 +106,14 @@ class SweepSummary:
     duplicates: int = 0
     status: str = "complete"
 
+    def describe(self, store: Any = None) -> str:
+        """What the run did, in one line ("N cells: C computed, S found stored ...")."""
+        where = f" (store {store})" if store else ""
+        return (
+            f"{self.planned} cells: {self.computed} computed, {self.skipped} found "
+            f"stored{where}, in {self.wall_seconds:.1f} s ({self.backend})"
+        )
+
     @property
     def store_overhead(self) -> float:
         """Store time per cell over compute time per cell."""
@@ -128,21 +137,24 @@ class _Tally:
 def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> dict[str, Any]:
     cfg = study.config
     tconf = study.trajectories[cell.traj_key]
+    named = result.get("result")
     return {
         **result,
+        "kind": study.setup.kind.name,
+        "result": None if named is None else json.dumps(named),  # (in the kind's order)
         "run_id": run_id,
         "computed_at": time.time(),
         "version": study.version,
         "vehicle": tconf["vehicle"],
         "buoyancy_pct": cfg.buoyancy_pct,
-        "input": str(tconf["input"]["name"]),
+        "input": str(tconf["input"]["name"]) if "input" in tconf else None,
         "model_fingerprint": study.model_fingerprint,
-        "input_fingerprint": tconf["input_fingerprint"],
+        "input_fingerprint": tconf.get("input_fingerprint"),
         "T": cfg.T,
         "after": cfg.after,
         "h": cell.h,
         "method": cell.method,
-        "order": cell_order(cell.method),
+        "order": study.setup.kind.method_order(cell.method),
         "eta_pct": cell.eta_pct,
         "v_pct": cell.v_pct,
         "seed": cell.seed,
@@ -618,8 +630,9 @@ class StudyResult:
     cells : list of dict
         One row per planned cell, in plan order: the configuration columns of a
         store row (``h``, ``eta_pct``, ``v_pct``, ``seed``, ``method``, ``norm``,
-        ``traj_key``, ...) and the results ``err_eta``, ``err_v``, ``err_all``,
-        ``status``, ``error``.
+        ``traj_key``, ``kind``, ...) and the results ``err_eta``, ``err_v``,
+        ``err_all``, ``status``, ``error`` and ``result`` (a dict: the named results
+        of a cell kind other than prediction, else empty).
     trajectories : dict
         traj_key -> its row: ``certificate``, ``n_samples``, ``summary`` (a dict),
         ``h``, ``status``, ``error``.
@@ -678,10 +691,29 @@ def run_study(
             f"{len(keys) - len(cells)} of the study's {len(keys)} cells are not in the store "
             "(another run is computing them); run again when it has finished."
         )
+    cells = [{**c, "result": _decoded(c.get("result"))} for c in cells]
     traj_rows = {}
     for t in trajs:
         row = dict(t)
-        text = row.get("summary")
-        row["summary"] = json.loads(text) if isinstance(text, str) and text else {}
+        row["summary"] = _decoded(row.get("summary"))
         traj_rows[row["traj_key"]] = row
     return StudyResult(study, cells, traj_rows, summary)
+
+
+def backend_options(
+    workers: int | None = None, scheduler: str | None = None, progress: bool = False
+) -> dict[str, Any]:
+    """The :func:`run_study` options of a built-in study's ``workers`` / ``scheduler``:
+    a Dask scheduler if given, else local workers if more than one, else this process
+    (``workers`` None or 1)."""
+    options: dict[str, Any] = {"progress": progress}
+    if scheduler is not None:
+        options["scheduler"] = scheduler
+    elif workers is not None and workers > 1:
+        options["workers"] = workers
+    return options
+
+
+def _decoded(text: Any) -> dict[str, Any]:
+    """A JSON column (``summary``, ``result``) as a dict (empty if NULL)."""
+    return json.loads(text) if isinstance(text, str) and text else {}

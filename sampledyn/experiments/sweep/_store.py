@@ -17,7 +17,11 @@ cells
     the results ``err_eta``, ``err_v``, ``err_all`` (the norm over the position/angle
     components, the rate components, all components), ``status`` ("ok"/"error"),
     ``error``, ``warnings``, ``seconds`` (compute time of the cell on its worker),
-    ``worker``, ``run_id`` and ``computed_at`` (Unix time).
+    ``worker``, ``run_id`` and ``computed_at`` (Unix time); ``kind``, the study's
+    cell kind ("prediction", "closed_loop", "multistep"; NULL in rows written before
+    kinds existed: prediction), and ``result``, the named results of a kind other
+    than prediction as JSON (e.g. a closed loop's residual set), spread into columns
+    by :func:`load_results`.
 trajectories
     One row per exact-sample trajectory: its configuration, certificate (largest
     scaled per-interval flow error), samples, simulation time and ``summary`` (JSON:
@@ -107,7 +111,10 @@ CELL_COLUMNS: tuple[tuple[str, str], ...] = (
     ("error", "TEXT"),
     ("warnings", "TEXT"),
     ("config", "TEXT NOT NULL"),
+    ("kind", "TEXT"),
+    ("result", "TEXT"),
 )
+_CELL_COLUMNS_ADDED = ("kind", "result")  # added to stores written before (same schema)
 
 _TRAJ_COLUMNS = (
     ("traj_key", "TEXT PRIMARY KEY"),
@@ -463,11 +470,8 @@ class ResultStore:
                     conn.execute(f'ALTER TABLE runs ADD COLUMN "{name}" {kind}')
             conn.execute(_ddl("claims", _CLAIM_COLUMNS))
             conn.execute("CREATE INDEX IF NOT EXISTS claims_run ON claims (run_id)")
-            have = {r[1] for r in conn.execute("PRAGMA table_info(trajectories)")}
-            for name in _TRAJ_COLUMNS_ADDED:
-                if name not in have:
-                    kind = dict(_TRAJ_COLUMNS)[name]
-                    conn.execute(f'ALTER TABLE trajectories ADD COLUMN "{name}" {kind}')
+            for table, name, kind in self._missing_columns():
+                conn.execute(f'ALTER TABLE {table} ADD COLUMN "{name}" {kind}')
             conn.execute(
                 "UPDATE meta SET value = ? WHERE name = 'schema_version'", (SCHEMA_VERSION,)
             )
@@ -476,16 +480,25 @@ class ResultStore:
         # Move the marked header from the log into the file itself.
         conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
 
+    def _missing_columns(self) -> list[tuple[str, str, str]]:
+        """(table, column, type) of the columns added since a store was written."""
+        out = []
+        for table, columns, added in (
+            ("trajectories", _TRAJ_COLUMNS, _TRAJ_COLUMNS_ADDED),
+            ("cells", CELL_COLUMNS, _CELL_COLUMNS_ADDED),
+        ):
+            have = {r[1] for r in self._conn.execute(f"PRAGMA table_info({table})")}
+            if have:
+                out += [(table, n, dict(columns)[n]) for n in added if n not in have]
+        return out
+
     def _add_columns(self) -> None:
-        """Add the trajectory columns of this version that the store lacks."""
-        conn = self._conn
-        have = {r[1] for r in conn.execute("PRAGMA table_info(trajectories)")}
-        missing = [n for n in _TRAJ_COLUMNS_ADDED if n not in have]
-        if have and missing:
+        """Add the columns of this version that the store lacks."""
+        missing = self._missing_columns()
+        if missing:
             with self._transaction():
-                for name in missing:
-                    kind = dict(_TRAJ_COLUMNS)[name]
-                    conn.execute(f'ALTER TABLE trajectories ADD COLUMN "{name}" {kind}')
+                for table, name, kind in missing:
+                    self._conn.execute(f'ALTER TABLE {table} ADD COLUMN "{name}" {kind}')
 
     def _check_schema(self) -> None:
         with _translated(self.path):
@@ -756,7 +769,9 @@ def load_results(
     """The rows of a results store as a pandas DataFrame (see :func:`sampledyn.results.load`).
 
     The store is opened read-only: it may sit on read-only media or be written by a
-    running sweep meanwhile.
+    running sweep meanwhile. The named results of cells of a kind other than
+    prediction (the ``result`` column, JSON) come as one column per name (e.g.
+    ``depth_p95`` of a closed-loop study), NaN/None in the rows without it.
     """
     import pandas as pd
 
@@ -777,4 +792,20 @@ def load_results(
     for col in ("computed_at", "started_at", "finished_at", "heartbeat"):
         if col in df.columns:
             df[col] = pd.to_datetime(df[col], unit="s", utc=True)
+    return _spread_results(df)
+
+
+def _spread_results(df: Any) -> Any:
+    """The cells' ``result`` JSON (named results of a cell kind other than
+    prediction) as one column per name, in place of ``result``."""
+    if "result" not in df.columns:
+        return df
+    import pandas as pd
+
+    parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in df["result"]]
+    df = df.drop(columns="result")
+    names = [n for n in dict.fromkeys(k for r in parsed for k in r) if n not in df.columns]
+    if names:
+        extra = pd.DataFrame([{n: r.get(n) for n in names} for r in parsed], index=df.index)
+        df = pd.concat([df, extra], axis=1)
     return df

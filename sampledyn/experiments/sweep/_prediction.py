@@ -1,0 +1,49 @@
+"""The engine's default cell kind: one-step prediction on noisy exact samples.
+
+Shared per trajectory: the exact samples of the model under the study's input
+(:func:`._compute.simulate_trajectory`, once per simulation; multiples of the smallest
+h take every k-th sample). A cell: one rule's one-step prediction on the samples with
+one noise pair and seed, measured by one norm (:func:`._compute.compute_chunk`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+from ...simulate import simulate
+from ._cells import CellKind, Chunk, Setup, SimPlan, register_cell_kind
+from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
+
+__all__ = ["PREDICTION", "PredictionCells"]
+
+
+class PredictionCells(CellKind):
+    """One rule's one-step prediction on noisy exact samples, measured by a norm."""
+
+    name = "prediction"
+    description = "one-step predictions of each rule on noisy exact samples, by norm"
+    measure_label = "norms"
+
+    def measures(self, config: Any) -> tuple[str, ...]:
+        return tuple(config.norms)
+
+    def prepare(self, setup: Setup, sim: SimPlan) -> dict[str, SimResult]:
+        return simulate_trajectory(setup, sim)
+
+    def compute(self, setup: Setup, shared: SimResult, chunk: Chunk) -> ChunkResult:
+        return compute_chunk(setup, shared, chunk)
+
+    def warm_up(self, setup: Setup, h: float) -> None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                traj = simulate(setup.model, setup.signal, T=h, h=h, x0=setup.x0)
+                setup.model.f(traj.t, traj.x, traj.u)
+            except (ValueError, ArithmeticError, RuntimeError):
+                pass  # a real failure is reported by the task that meets it
+
+
+#: The registered prediction kind (the default of every sweep file).
+PREDICTION = PredictionCells()
+register_cell_kind(PREDICTION)

@@ -1,0 +1,174 @@
+"""The controller studies on the experiment engine: ``reproduce closed-loop`` and
+``reproduce multistep`` plan their cells with the engine's planner, compute them on its
+backends and keep them in its store.
+
+The fixtures ``tests/data/closed_loop_pre_engine.csv`` and
+``multistep_pre_engine.csv`` were written by the code before the studies moved onto
+the engine (commit 04f6bc2, the studies' own loops), with the options of ``_CL`` and
+``_MS``; the engine must give the same rows, every column as text, bit for bit, in
+this process and on local workers, and after a run was killed and resumed.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sqlite3
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from _sweep_helpers import kill_when_stored
+
+import sampledyn as sd
+from sampledyn.cli import main
+from sampledyn.experiments import ClosedLoopStudy, MultistepStudy
+from sampledyn.experiments.sweep import (
+    SweepConfigError,
+    available_cell_kinds,
+    load_config,
+    plan_study,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).parent / "data"
+_CL = ["closed-loop", "--T", "20", "--after", "5", "--seeds", "2", "--h", "0.5"]
+_MS = ["multistep", "--T", "20", "--after", "5", "--seeds", "2", "--h", "0.5"]
+
+
+def _csv(path: Path) -> list[str]:
+    return path.read_text().splitlines()
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+@pytest.mark.parametrize(
+    "args, name",
+    [(_CL, "closed_loop"), (_MS, "multistep")],
+    ids=["closed-loop", "multistep"],
+)
+def test_numbers_are_those_of_the_studies_own_loops(tmp_path, capsys, args, name, workers):
+    out = tmp_path / "out"
+    assert main(["reproduce", *args, "--workers", workers, "--out", str(out), "-q"]) == 0
+    printed = capsys.readouterr().out
+    backend = "in-process" if workers == "1" else "processes:2"
+    per_run = "49 cells: 49" if name == "closed_loop" else "882 cells: 882"
+    assert f"{per_run} computed, 0 found stored" in printed and f"({backend})" in printed
+    assert _csv(out / f"{name}_runs.csv") == _csv(DATA / f"{name}_pre_engine.csv")
+
+
+def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
+    """A real process SIGKILLed mid-run keeps its finished cells; the rerun computes
+    only the rest, and its rows equal the fixture; results and report read the store."""
+    db = tmp_path / "cl.db"
+    args = ["reproduce", *_CL, "--store", str(db), "--workers", "1", "-q"]
+    cmd = [sys.executable, "-m", "sampledyn.cli", *args, "--out", str(tmp_path / "a")]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    kill_when_stored(proc, db, 14)
+    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
+        finished = dict(conn.execute("SELECT key, result FROM cells").fetchall())
+    assert 14 <= len(finished) < 98, "the kill landed before or after the run"
+    assert main([*args, "--out", str(tmp_path / "b")]) == 0
+    printed = capsys.readouterr().out
+    runs = re.findall(r"(\d+) cells: (\d+) computed, (\d+) found stored", printed)
+    assert len(runs) == 2  # one engine run per vehicle
+    assert all(int(p) == int(c) + int(f) == 49 for p, c, f in runs)
+    assert sum(int(f) for _p, _c, f in runs) == len(finished)
+    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
+        after = dict(conn.execute("SELECT key, result FROM cells").fetchall())
+        status = [r[0] for r in conn.execute("SELECT status FROM runs ORDER BY started_at")]
+    assert len(after) == 98 and {k: after[k] for k in finished} == finished
+    # The killed run's record stays "running" (or "abandoned" once another run took
+    # over its claims); every other run completed.
+    dead = [s for s in status if s != "complete"]
+    assert len(dead) == 1 and dead[0] in ("running", "abandoned")
+    assert _csv(tmp_path / "b" / "closed_loop_runs.csv") == _csv(
+        DATA / "closed_loop_pre_engine.csv"
+    )
+    # The store is an ordinary results store: results and report read it.
+    df = sd.results.load(db)
+    assert set(df["kind"]) == {"closed_loop"} and len(df) == 98
+    assert df["depth_p95"].notna().sum() > 0 and set(df["vehicle"]) == {"rexrov", "bluerov2_heavy"}
+    assert main(["results", str(db)]) == 0
+    table = capsys.readouterr().out
+    assert "depth_p95" in table and "bluerov2_heavy" in table
+    assert main(["report", str(db), "--out", str(tmp_path / "report")]) == 0
+    md = (tmp_path / "report" / "report.md").read_text()
+    assert md.count("closed_loop on") == 2 and "depth_p95" in md
+
+
+def test_a_closed_loop_sweep_file_plans_the_studys_cells(tmp_path):
+    """A sweep file of kind closed_loop is the study's grid: the same cell keys as
+    ``reproduce closed-loop`` plans, so either fills the other's store."""
+    study = ClosedLoopStudy(vehicles=("rexrov",), h_values=(0.5,), T=20.0, transient=5.0, seeds=2)
+    f = tmp_path / "cl.toml"
+    f.write_text(
+        'kind = "closed_loop"\nvehicle = "rexrov"\nbuoyancy_pct = 1.0\nT = 20.0\nafter = 5.0\n'
+        'h = [0.5]\nmethods = ["ZOH", "E", "AB2", "AB4", "ABu4", "RK4", "T"]\n'
+        "noise = [[0, 0], [2, 2], [10, 10], [20, 20]]\nseeds = 2\nrtol = 1e-10\n"
+        "setpoint = { depth = 5.0 }\n"
+    )
+    from sampledyn.experiments._closed_loop import _config
+
+    ours = plan_study(_config(study, "rexrov"))
+    theirs = plan_study(load_config(f))
+    assert [c.key for c in theirs.iter_cells()] == [c.key for c in ours.iter_cells()]
+    assert theirs.n_cells == 49 and "1 measures" in theirs.size_text()
+    assert {"prediction", "closed_loop", "multistep"} <= set(available_cell_kinds())
+
+
+@pytest.mark.parametrize(
+    "extra, key, message",
+    [
+        ('norm = "rms"', "norm", "does not apply to a closed_loop study"),
+        ('input = "fig6"', "input", "does not apply"),
+        ("setpoint = { depht = 5.0 }", "setpoint", "no entry `depht`"),
+        ('offset = { depth = "x" }', "offset", "must be a finite number"),
+        ("delay = 1", "delay", "true or false"),
+        ('methods = ["ZOH", "E9"]', "methods", "E9"),
+    ],
+)
+def test_closed_loop_sweep_files_are_checked(tmp_path, extra, key, message):
+    f = tmp_path / "cl.toml"
+    body = 'kind = "closed_loop"\nvehicle = "rexrov"\nT = 20.0\nafter = 5.0\nh = [0.5]\n'
+    if not extra.startswith("methods"):
+        body += 'methods = ["ZOH", "E"]\n'
+    f.write_text(body + extra + "\n")
+    with pytest.raises(SweepConfigError, match=message) as info:
+        load_config(f)
+    assert info.value.key == key
+
+
+def test_unknown_kind_and_multistep_horizon_are_refused(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text('kind = "open_loop"\nvehicle = "rexrov"\nT = 1.0\nafter = 0.0\nh = 0.5\n')
+    with pytest.raises(SweepConfigError, match="unknown cell kind 'open_loop'"):
+        load_config(f)
+    f.write_text(
+        'kind = "multistep"\nvehicle = "rexrov"\ninput = "fig6"\nT = 1.0\nafter = 0.0\n'
+        'h = 0.5\nmethods = ["E"]\nhorizon = 0\n'
+    )
+    with pytest.raises(SweepConfigError, match="`horizon` must be an int >= 1") as info:
+        load_config(f)
+    assert info.value.key == "horizon"
+
+
+def test_multistep_study_shares_one_simulation_per_h(monkeypatch):
+    """The exact samples are simulated once per h (not per rule, noise pair or seed),
+    each h on its own (no subsampling: the numbers of the study's own loop)."""
+    import sampledyn.experiments.sweep._compute as compute
+
+    calls = []
+    real = compute.simulate
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["h"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(compute, "simulate", counted)
+    study = replace(MultistepStudy(), T=10.0, after=2.0, seeds=2, K=3, methods=("E", "AB2"))
+    rows = sd.experiments.run_multistep_study(study)
+    assert sorted(calls) == [0.1, 0.5]
+    assert len(rows) == 2 * 2 * (1 + 3 * 2) * 4
