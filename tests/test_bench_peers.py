@@ -24,9 +24,14 @@ def bench():
     spec = importlib.util.spec_from_file_location("bench_peers", _PATH)
     module = importlib.util.module_from_spec(spec)
     sys.modules["bench_peers"] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
+    sys.path.insert(0, str(_PATH.parent))  # its sibling `_rows`, as when run as a script
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(_PATH.parent))
     yield module
     sys.modules.pop("bench_peers", None)
+    sys.modules.pop("_rows", None)
 
 
 @pytest.fixture(scope="module")

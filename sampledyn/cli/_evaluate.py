@@ -63,8 +63,6 @@ def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from .. import estimate as _registers  # noqa: F401  (Ee, ABe<s>, before names are checked)
-
     methods = names(args.methods)
     estimate = names(args.estimate)
     with option("--methods"):
