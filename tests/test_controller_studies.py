@@ -172,3 +172,22 @@ def test_multistep_study_shares_one_simulation_per_h(monkeypatch):
     rows = sd.experiments.run_multistep_study(study)
     assert sorted(calls) == [0.1, 0.5]
     assert len(rows) == 2 * 2 * (1 + 3 * 2) * 4
+
+
+def test_closed_loop_table_says_reference_and_divergence_in_words():
+    """ZOH, the reference, has no one-step model error ("-", not "diverged"); a design
+    with runs that left the envelope shows how many ("div k/n") instead of residuals."""
+    from sampledyn.report import closed_loop_table
+
+    base = dict(vehicle="rexrov", h=0.5, eta_pct=2.0, v_pct=2.0, rho_design=0.8,
+                rho_true=0.8, depth_p95=0.02, depth_max=0.03, heading_p95=0.01,
+                heading_max=0.02, surge_p95=0.01, effort_rms=0.02, saturated=0.0)  # fmt: skip
+    zoh = dict(base, method="ZOH", one_step_rms=float("nan"), runs=5, diverged=0)
+    ab4 = dict(base, method="AB4", one_step_rms=1.8e-3, runs=5, diverged=3,
+               depth_p95=float("nan"))  # fmt: skip
+    lines = closed_loop_table([zoh, ab4]).splitlines()
+    zoh_cells = [c.strip() for c in lines[2].strip("|").split("|")]
+    ab4_cells = [c.strip() for c in lines[3].strip("|").split("|")]
+    assert zoh_cells[2:5] == ["ZOH", "2/2", "-"] and "diverged" not in lines[2]
+    assert zoh_cells[7] == "0.02"
+    assert ab4_cells[4] == "0.0018" and ab4_cells[7:] == ["div 3/5"] * 7

@@ -36,9 +36,17 @@ def closed_loop_table(summary: list[dict[str, Any]]) -> str:
         "| " + " | ".join(title for _, title in cols) + " |",
         "|" + "---|" * len(cols),
     ]
+    fixed = {"vehicle", "h", "method", "noise", "one_step_rms", "rho_design", "rho_true"}
     for r in sorted(summary, key=lambda r: (r["vehicle"], r["h"], r["eta_pct"], r["v_pct"])):
         cell = dict(r, noise=f"{r['eta_pct']:g}/{r['v_pct']:g}")
-        lines.append("| " + " | ".join(_fmt(cell[k]) for k, _ in cols) + " |")
+        # ZOH is the exact linearisation, the reference: it has no one-step model error.
+        step = cell["one_step_rms"]
+        cell["one_step_rms"] = "-" if isinstance(step, float) and math.isnan(step) else step
+        shown = [_fmt(cell[k]) for k, _ in cols]
+        if r.get("diverged"):  # the residual sets of a design with runs that left
+            d = f"div {r['diverged']}/{r['runs']}"
+            shown = [v if k in fixed else d for (k, _), v in zip(cols, shown, strict=True)]
+        lines.append("| " + " | ".join(shown) + " |")
     return "\n".join(lines)
 
 
