@@ -402,3 +402,22 @@ def test_rov_damping_recovered_from_exact_samples():
     assert err4.max() < 5e-3, dict(zip(lin, err4, strict=True))
     assert err1.max() > 100 * err4.max()  # Euler's O(h) bias
     assert ab4.condition_number < 1e3
+
+
+def test_printed_estimate_marks_terms_the_data_hardly_excite():
+    """A parameter whose standard error reaches its magnitude is marked (*) with a note;
+    the others are not."""
+    import dataclasses
+
+    model = sd.models.AUVLike()
+    traj = sd.simulate(model, sd.signals.Multilevel(-10.0, 10.0, hold=0.05, seed=0), T=40.0,
+                       h=0.01)  # fmt: skip
+    res = sd.estimate(model, traj, structure="AB2", after=2.0)
+    names = list(res.params)
+    se = {n: abs(v) * 0.01 for n, v in res.params.items()}
+    se[names[0]] = 2.0 * abs(res.params[names[0]])
+    text = str(dataclasses.replace(res, std_errors=se))
+    marked = [line for line in text.splitlines() if line.endswith("(*)")]
+    assert len(marked) == 1 and marked[0].lstrip().startswith(f"{names[0]} =")
+    assert "hardly excites" in text
+    assert "(*)" not in str(dataclasses.replace(res, std_errors={n: 0.0 for n in names}))

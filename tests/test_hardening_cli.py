@@ -396,3 +396,47 @@ def test_a_numerical_failure_is_one_line_with_its_own_status(capsys, monkeypatch
     assert status == EXIT_NUMERICAL
     line = _one_line(err)
     assert "smaller h" in line and "internal error" not in line
+
+
+# -- the second new-user trial: values that passed the option types but broke later
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["reproduce", "fig3", "--h", "0.03"], "`h` = 0.03 s does not divide T = 200 s"),
+        (["reproduce", "fig3", "--T", "inf"], "`T` must be a finite number, got inf"),
+        (["reproduce", "fig2", "--T", "nan"], "`T` must be a finite number, got nan"),
+        (["advise", "--vehicle", "bluerov2_heavy", "--T", "inf", "--no-validate"],
+         "`T` must be a finite number of seconds > 0, got inf"),
+        (["advise", "--vehicle", "bluerov2_heavy", "--T", "0.05", "--no-validate"],
+         "`T` = 0.05 s is too short for h = 0.1 s"),
+        (["advise", "--vehicle", "bluerov2_heavy", "--workers", "0"],
+         "`workers` must be an int >= 1"),
+    ],
+)  # fmt: skip
+def test_bad_durations_periods_and_workers_are_named_before_work(args, expected, tmp_path, capsys):
+    code, err = _fails([*args, "--out", str(tmp_path / "o")], capsys)
+    assert code == EXIT_BAD_VALUE
+    assert expected in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_fig7_of_another_vehicle_does_not_overwrite_the_default_output():
+    from sampledyn.cli._reproduce import _fig7_out
+
+    assert _fig7_out("rexrov") == "out/fig7"
+    assert _fig7_out("bluerov2_heavy") == "out/fig7_bluerov2_heavy"
+    assert _fig7_out("/home/me/my_rov.toml") == "out/fig7_my_rov"
+
+
+def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(capsys):
+    """The h_max search runs RK4 at periods up to 2 s, where a stage leaves the data's
+    pitch range (the RexROV's Fig. 6 run stays within 22 deg; stages reached 85 deg and
+    the vehicle warned as if the data had): no pitch warning, the domain says the truth."""
+    assert main(["advise", "--vehicle", "rexrov", "--input", "fig6", "--h", "0.1",
+                 "--methods", "RK4", "--no-validate"]) == 0  # fmt: skip
+    out, err = capsys.readouterr()
+    assert "pitch |theta|" not in err
+    theta = float(re.search(r"\|theta\|<=([0-9.]+) deg", out).group(1))
+    assert theta < 30.0

@@ -216,7 +216,7 @@ def _fig7(args: argparse.Namespace) -> int:
     )
     with option("--hold-gains" if args.hold_gains else "--vehicle"):
         config = study.config()
-    out = writable_dir(args.out or "out/fig7", "--out")
+    out = writable_dir(args.out or _fig7_out(config.vehicle), "--out")
     engine = _engine(args, 2)
 
     from ..experiments import run_rov_study, summarize_rov
@@ -329,6 +329,15 @@ def _discrete_studies(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fig7_out(vehicle: str) -> str:
+    """Default output folder of fig7: ``out/fig7`` for the study's vehicle (RexROV),
+    ``out/fig7_<name>`` for another, so one run does not overwrite the other."""
+    from ..experiments import ROVStudy
+
+    default = ROVStudy().config().vehicle
+    return "out/fig7" if vehicle == default else f"out/fig7_{Path(vehicle).stem}"
+
+
 def _run(args: argparse.Namespace) -> int:
     _check_applies(args)
     if args.figure in ("closed-loop", "multistep"):
@@ -371,7 +380,11 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         ),
     )
     rep.add_argument("figure", choices=sorted(_USES), help="which result to regenerate")
-    rep.add_argument("--out", help="output folder (default: out/FIGURE)")
+    rep.add_argument(
+        "--out",
+        help="output folder (default: out/FIGURE; fig7 with a vehicle other than the "
+        "RexROV: out/fig7_VEHICLE)",
+    )
     rep.add_argument(
         "--h",
         type=floats,

@@ -129,9 +129,20 @@ class EstimationResult:
             f"solver {self.solver}, residual norm {self.residual_norm:.4g}, "
             f"condition number {self.condition_number:.3g}"
         ]
+        loose = []
         for name, value in self.params.items():
             se = "" if self.std_errors is None else f" +- {self.std_errors[name]:.3g}"
-            lines.append(f"  {name} = {value:.8g}{se} {self.units.get(name, '')}".rstrip())
+            line = f"  {name} = {value:.8g}{se} {self.units.get(name, '')}".rstrip()
+            if self.std_errors is not None and not self.std_errors[name] < abs(value):
+                line += "  (*)"
+                loose.append(name)
+            lines.append(line)
+        if loose:
+            lines.append(
+                "  (*) standard error >= |value|: this log hardly excites the term (sign and "
+                "size undetermined); the standard errors assume independent residuals, so "
+                "they are indicative only"
+            )
         if self.weights is not None:
             lines.append(f"  weights = {np.array2string(self.weights, precision=6)}")
         return "\n".join(lines)

@@ -22,6 +22,7 @@ prediction_inputs`).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -277,10 +278,16 @@ def _curves(
             model, m, applied if applied is not None else base, base, signal
         )
         groups.setdefault(id(use_model), (use_model, data, sig, []))[3].append(m)
-    parts = [
-        error_curves(gm, gms, data, ks, eta_pct, v_pct, domain, sig, samples=samples)
-        for gm, data, sig, gms in groups.values()
-    ]
+    # The curves run every rule at periods up to h_max_search (2 s and more), where an
+    # RK stage or a prediction can leave the data's pitch range by far; a vehicle's
+    # warning about such an f argument would read as if the data went there (the data's
+    # own range is the domain, checked and printed). Those errors show in the curves.
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"pitch \|theta\| up to", category=UserWarning)
+        parts = [
+            error_curves(gm, gms, data, ks, eta_pct, v_pct, domain, sig, samples=samples)
+            for gm, data, sig, gms in groups.values()
+        ]
     if len(parts) == 1:
         return parts[0]
     merged: dict[str, dict[str, np.ndarray]] = {}
@@ -383,6 +390,22 @@ def advise(
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):  # fmt: skip
+        raise ValueError(f"`workers` must be an int >= 1 (or None: this process), got {workers!r}.")
+    if reference is None:
+        if not (isinstance(T, int | float) and math.isfinite(T) and T > 0):
+            raise ValueError(
+                f"reference run length `T` must be a finite number of seconds > 0, got {T!r}."
+            )
+        longest = max(ms, key=lambda m: m.history)
+        t_min = (longest.history + 2) * h  # history + 3 predictions at h
+        if T < t_min:
+            raise ValueError(
+                f"reference run length `T` = {T:g} s is too short for h = {h:g} s: "
+                f"{longest.name} needs {longest.history} samples of history and 3 "
+                f"predictions; give T >= {t_min:g} s."
+            )
     tol = None if tolerance is None else check_tolerance(tolerance)
     amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
     if domain is not None and not vehicle:

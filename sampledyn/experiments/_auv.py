@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import ERROR_NORMS
 from ..methods import families, get_method
 from ..models import AUVLike
-from .sweep import SweepConfig, fastest_time_constant, run_study
+from .sweep import SweepConfig, check_time_grid, fastest_time_constant, run_study
 
 __all__ = [
     "AUVStudy",
@@ -84,13 +84,12 @@ class AUVStudy:
     model: Any = field(default_factory=AUVLike)
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.h) and self.h > 0):
+        if not (isinstance(self.h, int | float) and np.isfinite(self.h) and self.h > 0):
             raise ValueError(f"sampling period `h` must be > 0 s, got {self.h}.")
         for r in self.hold_ratios:
             if not isinstance(r, int | np.integer) or r < 1:
                 raise ValueError(f"`hold_ratios` must be positive integers, got {r!r}.")
-        if not self.after < self.T:
-            raise ValueError(f"`after` = {self.after} s must be below T = {self.T} s.")
+        check_time_grid(self.T, self.after, self.h)
 
 
 def auv_config(study: AUVStudy) -> SweepConfig:

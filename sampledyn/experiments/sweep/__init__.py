@@ -31,6 +31,7 @@ from ._compute import simulate_trajectory as simulate_trajectory
 from ._config import DEFAULT_MAX_CELLS as DEFAULT_MAX_CELLS
 from ._config import NoiseGrid as NoiseGrid
 from ._config import SweepConfig as SweepConfig
+from ._config import check_time_grid as check_time_grid
 from ._config import SweepConfigError as SweepConfigError
 from ._config import load_config as load_config
 from ._inputs import available_feedback as available_feedback
@@ -106,6 +107,7 @@ __all__ = [
     "away_from_jumps",
     "away_from_kinks",
     "build_model",
+    "check_time_grid",
     "check_input",
     "exact_samples",
     "check_dask_workers",

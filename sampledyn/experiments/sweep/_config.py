@@ -63,7 +63,14 @@ from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
 from ._summaries import SUMMARIES
 
-__all__ = ["DEFAULT_MAX_CELLS", "NoiseGrid", "SweepConfig", "SweepConfigError", "load_config"]
+__all__ = [
+    "DEFAULT_MAX_CELLS",
+    "NoiseGrid",
+    "SweepConfig",
+    "SweepConfigError",
+    "check_time_grid",
+    "load_config",
+]
 
 #: Largest grid a sweep runs unless told otherwise (``max_cells``, ``--max-cells``).
 DEFAULT_MAX_CELLS = 1_000_000
@@ -281,7 +288,15 @@ def load_config(path: str | os.PathLike[str]) -> SweepConfig:
 
 
 def _where(src: str) -> str:
-    return "" if src == "<dict>" else f" in {src}"
+    return "" if src in ("", "<dict>") else f" in {src}"
+
+
+def _nearby_divisor(T: float, h: float) -> float | None:
+    """A round period near ``h`` (1, 2, 2.5, 4, 5 x 10^k) dividing ``T``, or None."""
+    exp = math.floor(math.log10(h))
+    candidates = [m * 10.0 ** (exp + e) for e in (-1, 0, 1) for m in (1, 2, 2.5, 4, 5)]
+    fits = [c for c in candidates if abs(T / c - round(T / c)) <= 1e-9 * (T / c)]
+    return min(fits, key=lambda c: abs(math.log(c / h)), default=None)
 
 
 def _number(key: str, value: Any, src: str, *, positive: bool = False) -> float:
@@ -300,6 +315,38 @@ def _number_list(key: str, value: Any, src: str, *, positive: bool = False) -> t
     if len(set(out)) != len(out):
         raise SweepConfigError(key, f"`{key}`{_where(src)} lists a value twice: {values!r}.")
     return out
+
+
+def check_time_grid(
+    T: Any, after: Any, h: Any, src: str = "<dict>"
+) -> tuple[float, float, tuple[float, ...]]:
+    """``(T, after, hs)`` of a study, checked: ``T`` finite and > 0 (s), ``after`` in
+    [0, T) (s), every period of ``h`` (a number or a list, s) > 0 and dividing ``T``
+    into whole steps. The one rule for sweep files and the built-in studies.
+
+    Raises
+    ------
+    SweepConfigError
+        naming the key (``T``, ``after`` or ``h``), its value and the fix.
+    """
+    T = _number("T", T, src, positive=True)
+    after = _number("after", after, src)
+    if not 0 <= after < T:
+        raise SweepConfigError(
+            "after", f"`after`{_where(src)} must be in [0, T={T:g}) s, got {after}."
+        )
+    hs = _number_list("h", h, src, positive=True)
+    for period in hs:
+        ratio = T / period
+        if abs(ratio - round(ratio)) > 1e-9 * ratio:
+            near = _nearby_divisor(T, period)
+            hint = "" if near is None else f" (e.g. {near:g} s)"
+            raise SweepConfigError(
+                "h",
+                f"`h` = {period:g} s{_where(src)} does not divide T = {T:g} s into whole "
+                f"steps; choose h = T/n for an integer n{hint} or another T.",
+            )
+    return T, after, hs
 
 
 def _percentages(key: str, value: Any, src: str) -> tuple[float, ...]:
@@ -557,19 +604,7 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
     for key in ("T", "after", "h"):
         if key not in data:
             raise SweepConfigError(key, f"`{key}`{_where(src)} is required.")
-    T = _number("T", data["T"], src, positive=True)
-    after = _number("after", data["after"], src)
-    if not 0 <= after < T:
-        raise SweepConfigError(
-            "after", f"`after`{_where(src)} must be in [0, T={T:g}) s, got {after}."
-        )
-    hs = _number_list("h", data["h"], src, positive=True)
-    for h in hs:
-        ratio = T / h
-        if abs(ratio - round(ratio)) > 1e-9 * ratio:
-            raise SweepConfigError(
-                "h", f"`h` = {h:g} s{_where(src)} does not divide T = {T:g} s into whole steps."
-            )
+    T, after, hs = check_time_grid(data["T"], data["after"], data["h"], src)
     base_seed = data.get("base_seed", 0)
     if not isinstance(base_seed, int) or isinstance(base_seed, bool) or base_seed < 0:
         raise SweepConfigError("base_seed", f"`base_seed`{_where(src)} must be an int >= 0.")
