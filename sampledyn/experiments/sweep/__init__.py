@@ -31,8 +31,8 @@ from ._compute import simulate_trajectory as simulate_trajectory
 from ._config import DEFAULT_MAX_CELLS as DEFAULT_MAX_CELLS
 from ._config import NoiseGrid as NoiseGrid
 from ._config import SweepConfig as SweepConfig
-from ._config import check_time_grid as check_time_grid
 from ._config import SweepConfigError as SweepConfigError
+from ._config import check_time_grid as check_time_grid
 from ._config import load_config as load_config
 from ._inputs import available_feedback as available_feedback
 from ._inputs import available_inputs as available_inputs
