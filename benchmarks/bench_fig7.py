@@ -92,8 +92,8 @@ def _child_timeline(argv: list[str]) -> None:
         marks.setdefault(name, time.time() - t_zero)
 
     import sampledyn.experiments as experiments
-    import sampledyn.experiments.sweep._backends as backends
     import sampledyn.experiments.sweep._compute as compute
+    import sampledyn.experiments.sweep._prediction as prediction
     import sampledyn.experiments.sweep._run as run_mod
 
     def logged(fn: Any, label: str) -> Any:
@@ -111,8 +111,8 @@ def _child_timeline(argv: list[str]) -> None:
 
     compute.simulate_trajectory = logged(compute.simulate_trajectory, "simulate")
     compute.compute_chunk = logged(compute.compute_chunk, "cells")
-    backends.simulate_trajectory = compute.simulate_trajectory
-    backends.compute_chunk = compute.compute_chunk
+    prediction.simulate_trajectory = compute.simulate_trajectory  # the cell kind calls them
+    prediction.compute_chunk = compute.compute_chunk
     real_start = run_mod.start_pool
 
     def start_pool(*a: Any, **k: Any) -> Any:
