@@ -100,16 +100,20 @@ def _singular_where(
         while hi - lo > 1:
             mid = (lo + hi) // 2
             lo, hi = (lo, mid) if fails(mid) is not None else (mid, hi)
-        err = fails(hi) or exc
+        err = fails(hi)
+    if err is None:  # not reproduced on the data alone (cannot happen for a one-step rule)
+        return SingularPitchError(
+            f"{m.name}'s prediction: {exc}", exc.theta, exc.sample, exc.tolerance_deg
+        )
     k = hi - 1
     step = measured.t[k] - measured.t[k - 1]
     return SingularPitchError(
         f"{m.name}'s prediction of sample {k} (t = {measured.t[k]:g} s, over a step of "
         f"{step:g} s from sample {k - 1}) passes through a state with pitch angle theta = "
         f"{math.degrees(err.theta):.4g} deg, within {err.tolerance_deg:g} deg of +-90 deg "
-        "(modulo 180 deg), where the Euler-angle kinematics J(eta) of eq. (6) is singular. The measured "
-        "states are clear of it: the rule formed that state between samples (a stage or "
-        "an iterate), so the step is too large for the model's motion there; use a "
+        "(modulo 180 deg), where the Euler-angle kinematics J(eta) of eq. (6) is singular. "
+        "The measured states are clear of it: the rule formed that state between samples "
+        "(a stage or an iterate), so the step is too large for the model's motion there; use a "
         "smaller h (and check the time unit of logged data).",
         err.theta,
         k,

@@ -216,8 +216,9 @@ def check_pitch(
     """Check pitch angles against the Euler-angle singularity at theta = +-90 deg.
 
     Raises :class:`SingularPitchError` (a ValueError) when some ``|theta|`` is within
-    ``tolerance_deg`` of 90 deg (modulo 180 deg). Returns ``(past_limit, worst_deg)``: whether some ``|theta|``
-    exceeds ``limit_deg`` (the caller warns) and the worst angle in degrees.
+    ``tolerance_deg`` of 90 deg (modulo 180 deg). Returns ``(past_limit, worst_deg)``:
+    whether some ``|theta|`` exceeds ``limit_deg`` (the caller warns) and the worst
+    angle in degrees.
 
     ``theta`` is array_like (rad, any shape), or one Python float: a single state, as a
     controller stepping a model from Python passes it, is checked with ``math`` and no
