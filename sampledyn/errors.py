@@ -29,6 +29,7 @@ unweighted ones, bit for bit. The errors themselves are not rescaled by the step
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -204,6 +205,10 @@ class ErrorWindow:
             sq = sq[~missing]
             span = None if span is None else span[~missing]
         if sq.size == 0:
+            if self.after is None:
+                raise ValueError(
+                    f"no sample of the {self.n_samples} has a prediction; lengthen the run."
+                )
             raise ValueError(
                 f"no samples with a prediction at t >= after={self.after}; "
                 "shorten `after` or lengthen the run."
@@ -238,8 +243,10 @@ def error_window(
     Raises
     ------
     ValueError
-        if ``where`` has the wrong shape.
+        if ``where`` has the wrong shape, or ``after`` is not a finite number.
     """
+    if after is not None and not math.isfinite(after):
+        raise ValueError(f"`after` must be a finite time (s) or None, got {after}.")
     t = np.asarray(t, dtype=float)
     n = t.shape[0]
     keep = None

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
+import warnings
 from typing import Any
 
 import numpy as np
 
-from ._trajectory import Trajectory
+from ._trajectory import NumericalError, Trajectory
 from .methods import get_method
+from .models import SingularPitchError
 
 __all__ = ["predict"]
 
@@ -48,10 +51,74 @@ def predict(
         for NaN or inf in ``measured`` (naming the first bad sample), sizes that do
         not fit the model, or sample times the method cannot handle (the fixed-step
         rules need a uniform grid; the message names the largest step deviation).
+    SingularPitchError
+        (a ValueError) where the model refuses a state near its singularity (a
+        vehicle's pitch near +-90 deg): the message says whether the measured data
+        hold it, or the rule formed it between samples, and then names the rule and
+        the sample whose prediction did.
     """
     m = get_method(method)
     check_measured(model, measured)
-    return np.asarray(m.predict(model, measured, signal, cache=cache))
+    try:
+        return np.asarray(m.predict(model, measured, signal, cache=cache))
+    except SingularPitchError as exc:
+        raise _singular_where(m, model, measured, signal, exc) from None
+
+
+def _singular_where(
+    m: Any, model: Any, measured: Trajectory, signal: Any, exc: SingularPitchError
+) -> SingularPitchError:
+    """Tell a singular state in ``measured`` from one that the rule formed between
+    samples (a Runge-Kutta stage, a Tustin iterate) and find the first sample whose
+    prediction formed it: one-step predictions use only the samples before the one
+    they predict, so the shortest prefix of the data on which the rule meets the
+    singularity ends at that sample (bisection, about log2 N predictions on the error
+    path only)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the warnings of the first attempt stand
+        try:
+            model.f(measured.t, measured.x, measured.u)
+        except SingularPitchError as on_data:
+            return SingularPitchError(
+                f"`measured` (the data, not a prediction): {on_data}",
+                on_data.theta,
+                on_data.sample,
+                on_data.tolerance_deg,
+            )
+
+        def fails(n: int) -> SingularPitchError | None:
+            part = measured.replace(t=measured.t[:n], x=measured.x[:n], u=measured.u[:n])
+            try:
+                m.predict(model, part, signal)
+            except SingularPitchError as err:
+                return err
+            except NumericalError:  # e.g. Newton on the other intervals: not this check
+                return None
+            return None
+
+        lo, hi = 1, measured.n_samples  # fails(lo) is None (no prediction), fails(hi) not
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (lo, mid) if fails(mid) is not None else (mid, hi)
+        err = fails(hi)
+    if err is None:  # not reproduced on the data alone (cannot happen for a one-step rule)
+        return SingularPitchError(
+            f"{m.name}'s prediction: {exc}", exc.theta, exc.sample, exc.tolerance_deg
+        )
+    k = hi - 1
+    step = measured.t[k] - measured.t[k - 1]
+    return SingularPitchError(
+        f"{m.name}'s prediction of sample {k} (t = {measured.t[k]:g} s, over a step of "
+        f"{step:g} s from sample {k - 1}) passes through a state with pitch angle theta = "
+        f"{math.degrees(err.theta):.4g} deg, within {err.tolerance_deg:g} deg of +-90 deg "
+        "(modulo 180 deg), where the Euler-angle kinematics J(eta) of eq. (6) is singular. "
+        "The measured states are clear of it: the rule formed that state between samples "
+        "(a stage or an iterate), so the step is too large for the model's motion there; use a "
+        "smaller h (and check the time unit of logged data).",
+        err.theta,
+        k,
+        err.tolerance_deg,
+    )
 
 
 def check_measured(model: Any, measured: Any) -> None:

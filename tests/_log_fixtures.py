@@ -257,3 +257,16 @@ def write_dataflash(log: Path, run: Any) -> tuple[Path, np.ndarray, np.ndarray]:
     log.write_bytes(blob)
 
     return log, cdeg, v_ned
+
+
+def vehicle_without(tmp_path: Path, drop: tuple[str, ...] = ("T7", "T8")) -> Path:
+    """The BlueROV2 Heavy vehicle file without the thrusters named in ``drop`` (each
+    ``[[thruster]]`` table removed from the published file as it is), written to
+    ``tmp_path``."""
+    text = (Path(sd.models.__file__).parent / "vehicles" / "bluerov2_heavy.toml").read_text()
+    head, *blocks = text.split("[[thruster]]")
+    kept = [b for b in blocks if not any(f'name = "{n}"' in b for n in drop)]
+    assert len(kept) == len(blocks) - len(drop)  # every dropped thruster was there
+    path = tmp_path / f"bluerov2_without_{'_'.join(drop)}.toml"
+    path.write_text(head + "".join("[[thruster]]" + b for b in kept))
+    return path

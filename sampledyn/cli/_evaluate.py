@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 from typing import Any
 
 from ._common import add_format, names, option, print_json, refuse, registry, writable_file
@@ -69,6 +70,11 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         for name in methods:
             registry().get_method(name)
     _check_estimate(estimate)
+    if args.after is not None and not math.isfinite(args.after):
+        raise ValueError(
+            f"`--after` must be a finite time in s (log time), got {args.after:g}; e.g. "
+            "--after 2 counts the errors on t >= 2 s."
+        )
     out = writable_file(args.out, "--out") if args.out else None
 
     from ..experiments.sweep import build_model

@@ -20,6 +20,7 @@ _EXPORTS: dict[str, str] = {
     "LogData": "._read",
     "LogEvaluation": "._evaluate",
     "LogFormatError": "._units",
+    "MAX_H_RATE": "._evaluate",
     "Sampling": "._time",
     "evaluate_log": "._evaluate",
     "log_from_frame": "._read",
@@ -34,6 +35,7 @@ _EXPORTS: dict[str, str] = {
 __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
+    from ._evaluate import MAX_H_RATE as MAX_H_RATE
     from ._evaluate import LogEvaluation as LogEvaluation
     from ._evaluate import evaluate_log as evaluate_log
     from ._open import read_log as read_log

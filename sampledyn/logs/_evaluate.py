@@ -9,15 +9,27 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import error_norm, local_errors
+from ..errors import error_norm, error_window, local_errors
 from ..estimate import EstimationResult
 from ..methods import fixed_step, get_method
+from ..models import JacobianUnavailableError
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
+from ..sensitivity import fastest_time_constant
 from ._read import LogData
-from ._units import LogFormatError
+from ._time import TIME_UNITS
+from ._units import LogFormatError, split_header
 
-__all__ = ["LogEvaluation", "evaluate_log"]
+__all__ = ["MAX_H_RATE", "LogEvaluation", "evaluate_log"]
+
+#: Largest h / tau (tau: the model's fastest time constant on the logged states) that
+#: :func:`evaluate_log` accepts. Beyond it the fastest mode decays by more than
+#: e^-10 = 4.5e-5 within one sample, so the data hold nothing of it, and an explicit
+#: rule's one-step map amplifies it by |1 + h lambda| >= 9 (Euler; the stability
+#: intervals of the explicit rules end at h |lambda| <= 2.8). A log sampled that
+#: coarsely is most likely a log whose time unit is wrong: ms read as s multiplies
+#: h / tau by 1000, s read as min by 60 (the example log: h / tau = 0.43).
+MAX_H_RATE = 10.0
 
 
 @dataclass(frozen=True)
@@ -116,6 +128,68 @@ def _time_base(data: LogData, methods: Sequence[Any]) -> tuple[str, ...]:
     return tuple(notes)
 
 
+def _check_length(data: LogData, methods: Sequence[Any]) -> None:
+    """Refuse a rule that cannot predict a single sample of the log: one prediction
+    needs ``history`` samples before the one it predicts, in one segment."""
+    longest = max(b - a for a, b in data.segments)
+    for m in methods:
+        need = int(m.history) + 1
+        if longest < need:
+            split = f" (its longest segment {longest})" if len(data.segments) > 1 else ""
+            raise LogFormatError(
+                "data",
+                f"{data.source}: the log has {data.traj.n_samples} samples{split}; {m.name} "
+                f"needs at least {need} for one prediction ({need - 1} before the sample it "
+                f"predicts). Give a longer log, or leave {m.name} out of the methods.",
+            )
+
+
+def _unit_hint(data: LogData, tau: float, limit: float) -> str:
+    """'is the column in ms? label it t[ms]': the time unit that brings h / tau
+    under ``limit`` with the least change, where the column's unit is a time unit."""
+    unit = data.time_unit
+    if unit not in TIME_UNITS:
+        return "check the time stamps and the vehicle."
+    mult, div = TIME_UNITS[unit]
+    raw = data.traj.h * div / mult  # the step in the column's own numbers
+    fits = [
+        (raw * m / d, name)
+        for name, (m, d) in TIME_UNITS.items()
+        if name not in (unit, "µs") and raw * m / d <= limit * tau
+    ]
+    if not fits:
+        return "check the time column's unit and the vehicle."
+    alt = max(fits)[1]
+    name = split_header(data.time_column)[0]
+    return (
+        f"is the column in {alt}? label it {name}[{alt}] (or give unit = {alt!r} in the "
+        "mapping file)."
+    )
+
+
+def _check_period(model: Any, data: LogData, limit: float) -> tuple[str, ...]:
+    """Refuse a sampling period far beyond the model's fastest rate on the logged
+    states (:data:`MAX_H_RATE`); else a note with h / tau."""
+    try:
+        tau = fastest_time_constant(model, data.traj)
+    except JacobianUnavailableError:
+        return ("h not checked against the model's rates: the model has no Jacobian",)
+    h = data.traj.h
+    if h > limit * tau:
+        raise LogFormatError(
+            data.time_column,
+            f"{data.source}: sampling period h = {h:.6g} s (time column "
+            f"{data.time_column!r} read in {data.time_unit}) is {h / tau:.3g} times the "
+            f"model's fastest time constant tau = {tau:.3g} s (1/max|eig(df/dx)| on the "
+            f"logged states), beyond h/tau = {limit:g}: the samples cannot resolve the "
+            f"model's fastest motion; {_unit_hint(data, tau, limit)}",
+        )
+    return (
+        f"h / tau = {h / tau:.3g}, tau = {tau:.3g} s the model's fastest time constant on "
+        "the logged states",
+    )
+
+
 def _rows_text(rows: np.ndarray) -> str:
     """1-based data rows as ranges: 'data rows 4-7, 12'."""
     rows = np.asarray(rows) + 1
@@ -182,6 +256,7 @@ def evaluate_log(
     *,
     norm: str = "rms",
     after: float | None = None,
+    max_h_rate: float = MAX_H_RATE,
 ) -> LogEvaluation:
     """Disturbed local errors (section 5.1) of each method on the log.
 
@@ -199,7 +274,11 @@ def evaluate_log(
     norm : str
         See :func:`sampledyn.error_norm`.
     after : float, optional
-        Count the errors on t >= after (s, log time) only.
+        Count the errors on t >= after (s, log time) only; finite.
+    max_h_rate : float
+        Largest accepted h / tau, tau the model's fastest time constant
+        (:func:`sampledyn.sensitivity.fastest_time_constant`) on the logged states
+        (default :data:`MAX_H_RATE`; ``math.inf`` turns the check off).
 
     Returns
     -------
@@ -209,7 +288,12 @@ def evaluate_log(
     ------
     LogFormatError
         for a rule that predicts on a uniform grid only (the estimated rules) on a log
-        whose stamps are not uniform; for an estimated rule on a split log.
+        whose stamps are not uniform; for an estimated rule on a split log; for a log
+        too short for a rule to predict one sample; for h > ``max_h_rate`` tau (most
+        likely a wrong time unit: the message names the time column, its unit as read
+        and the unit that would fit).
+    ValueError
+        for a non-finite ``after``.
 
     Notes
     -----
@@ -221,7 +305,10 @@ def evaluate_log(
     """
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
-    notes = _time_base(data, [get_method(name) for name in methods])
+    error_window(data.traj.t, after)  # checks `after` before any work
+    rules = [get_method(name) for name in methods]
+    _check_length(data, rules)
+    notes = _time_base(data, rules)
     segments = data.segments
     if len(segments) > 1 and any(get_method(name).estimates_params for name in methods):
         raise LogFormatError(
@@ -234,6 +321,7 @@ def evaluate_log(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         _warn_inputs_beyond_limits(model, data)
+        notes += _check_period(model, data, max_h_rate)
         for name in methods:
             method: Any = get_method(name)
             if method.estimates_params:

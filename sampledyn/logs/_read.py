@@ -38,6 +38,7 @@ Every choice made is written to ``LogData.notes`` (printed by ``sampledyn evalua
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -80,6 +81,11 @@ class LogData:
         The sampling rule applied: uniform or jittered, h, gaps, segments.
     rows : ndarray of int, shape (N,), or None
         Data row of the source (0-based) of each sample.
+    time_column : str
+        The column the times were read from, as the source names it.
+    time_unit : str or None
+        Its unit as read (header or mapping file: "s", "ms", ..., "datetime"), None
+        where the column had none (ISO-8601 text).
     """
 
     traj: Trajectory
@@ -89,6 +95,8 @@ class LogData:
     notes: tuple[str, ...]
     sampling: Sampling | None = None
     rows: np.ndarray | None = None
+    time_column: str = "t"
+    time_unit: str | None = "s"
 
     @property
     def segments(self) -> tuple[tuple[int, int], ...]:
@@ -115,8 +123,10 @@ def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
 
 def _columns(
     columns: list[Any], model: Any, mapping: Any, src: str
-) -> dict[str, tuple[str, str | None]]:
-    """Model quantity -> (log column, unit) for t, every state and every input."""
+) -> tuple[dict[str, tuple[str, str | None]], list[str]]:
+    """Model quantity -> (log column, unit) for t, every state and every input; and
+    the log's columns named like a numbered input the model does not have (n7 on a
+    vehicle of 6 thrusters: :func:`_stray_inputs`)."""
     states, inputs = _aliases(model)
     quantities = ["t", "time", *(n for a in states for n in a), *(n for a in inputs for n in a)]
     entries = table_mapping(load_toml(mapping), columns, quantities, src)
@@ -135,15 +145,27 @@ def _columns(
         found[name] = (str(col), unit)
     out: dict[str, tuple[str, str | None]] = {}
     missing = []
+    missing_inputs = 0
     for names in [("t",), *states, *inputs]:
         hit = [n for n in names if n in found]
         if not hit:
             missing.append(" or ".join(repr(n) for n in names))
+            missing_inputs += names in inputs
             continue
         if len(hit) > 1:
             cols = [found[n][0] for n in hit]
             raise LogFormatError(hit[1], f"{src}: columns {cols} all give {names[0]!r}.")
         out[names[0]] = found[hit[0]]
+    if missing and missing_inputs == len(missing):
+        given = [out[a[0]][0] for a in inputs if a[0] in out]
+        raise LogFormatError(
+            "columns",
+            f"{src}: missing input column {missing[0]}"
+            + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
+            + f": {_count_inputs(model)}, the log has {len(given)} input column"
+            + f"{'s' if len(given) != 1 else ''} ({', '.join(repr(c) for c in given)}). Use "
+            "a vehicle with as many thrusters as the log, or add the missing columns.",
+        )
     if missing:
         have = ", ".join(repr(str(c)) for c in columns)
         raise LogFormatError(
@@ -159,7 +181,59 @@ def _columns(
                 f"{src}: column {col!r} ({name}) has no unit; write it as '{name}[unit]' in "
                 "the header or give it in a mapping file.",
             )
-    return out
+    return out, _stray_inputs(found, inputs, {col for col, _ in out.values()})
+
+
+_NUMBERED = re.compile(r"^(.*?)(\d+)$")
+
+
+def _stray_inputs(
+    found: dict[str, tuple[str, str | None]], inputs: list[tuple[str, ...]], used: set[str]
+) -> list[str]:
+    """Columns whose name (after the mapping file) is a numbered input name of the
+    model's families (n<k>, u<k>, n_r<k> ...) that is not one of its inputs."""
+    stems = {m.group(1) for names in inputs for n in names if (m := _NUMBERED.match(n))}
+    return [
+        col
+        for name, (col, _) in found.items()
+        if col not in used and (m := _NUMBERED.match(name)) and m.group(1) in stems
+    ]
+
+
+def _count_inputs(model: Any) -> str:
+    """'vehicle bluerov2_heavy has 6 thrusters (inputs n_r1..n_r6)' or the like."""
+    names = list(model.input_names)
+    listed = f"{names[0]}..{names[-1]}" if len(names) > 2 else ", ".join(names)
+    n_thr = getattr(model, "n_thrusters", None)
+    who = f"vehicle {model.name!r}" if hasattr(model, "name") else "the model"
+    if n_thr is not None:
+        return f"{who} has {n_thr} thruster{'s' if n_thr != 1 else ''} (inputs {listed})"
+    return f"{who} has {len(names)} input{'s' if len(names) != 1 else ''} ({listed})"
+
+
+def _check_stray_inputs(frame: Any, stray: list[str], model: Any, src: str) -> list[str]:
+    """Refuse input columns the model has no input for, unless they are 0 throughout
+    (thrusters of a bigger vehicle that were off: leaving them out loses nothing);
+    then say so in the notes."""
+    if not stray:
+        return []
+    zero = []
+    for col in stray:
+        try:
+            values = np.asarray(frame[col], dtype=float)
+        except (TypeError, ValueError):
+            values = np.array([np.nan])
+        zero.append(bool(np.all(values[np.isfinite(values)] == 0.0) and np.isfinite(values).any()))
+    names = ", ".join(repr(c) for c in stray)
+    if all(zero):
+        return [f"column(s) {names} are 0 throughout; {_count_inputs(model)}: left out"]
+    live = ", ".join(repr(c) for c, z in zip(stray, zero, strict=True) if not z)
+    raise LogFormatError(
+        stray[zero.index(False)],
+        f"{src}: column(s) {live} look like inputs (thrusters) the model does not have: "
+        f"{_count_inputs(model)}, and the model would ignore them. Use a vehicle with "
+        "those thrusters, or remove the columns from the log.",
+    )
 
 
 def _fill(values: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -249,7 +323,14 @@ def log_from_frame(
     if nan not in NAN_POLICIES:
         raise LogFormatError("nan", f"`nan` must be one of {', '.join(NAN_POLICIES)}, got {nan!r}.")
     check_policy(gaps, max_missing, time_tolerance)
-    cols = _columns(list(frame.columns), model, mapping, source)
+    if len(frame) == 0:
+        raise LogFormatError(
+            "data",
+            f"{source}: the log has no data rows (a header only); it needs at least 3 "
+            "samples, one per row.",
+        )
+    cols, stray = _columns(list(frame.columns), model, mapping, source)
+    stray_notes = _check_stray_inputs(frame, stray, model, source)
     states, inputs = _aliases(model)
     targets = dict(zip(model.state_names, model.state_units, strict=True))
     targets |= {a[0]: u for a, u in zip(inputs, model.input_units, strict=True)}
@@ -288,7 +369,7 @@ def log_from_frame(
     t = smp.t
     nx = model.nx
     _check_angles(data[:, :nx], model, cols, source)
-    out_notes = [*notes, *smp.notes, *nan_notes]
+    out_notes = [*notes, *smp.notes, *nan_notes, *stray_notes]
     converted = [
         f"{cols[n][0]} ({cols[n][1]} -> {targets[n]})" for n in targets if factors[n] != 1.0
     ]
@@ -316,7 +397,7 @@ def log_from_frame(
         origin=clock.origin,
     )
     rows = np.arange(keep.start, keep.stop)
-    return LogData(traj, valid, source, smp.jitter, tuple(out_notes), smp, rows)
+    return LogData(traj, valid, source, smp.jitter, tuple(out_notes), smp, rows, str(tcol), tunit)
 
 
 def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
@@ -329,7 +410,7 @@ def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
         if parquet:
             return pd.read_parquet(path), False
         header = pd.read_csv(path, skipinitialspace=True, nrows=0)
-        tcol = _columns(list(header.columns), model, mapping, path.name)["t"][0]
+        tcol = _columns(list(header.columns), model, mapping, path.name)[0]["t"][0]
         return pd.read_csv(path, skipinitialspace=True, dtype={tcol: str}), True
     except (ValueError, OSError, pd.errors.ParserError) as exc:
         if isinstance(exc, LogFormatError):

@@ -335,7 +335,12 @@ def sampling(
     """
     t = clock.offsets
     if t.size < 3:
-        raise LogFormatError("t", f"{src}: need at least 3 samples, got {t.size}.")
+        raise LogFormatError(
+            "t",
+            f"{src}: the log has {t.size} sample{'s' if t.size != 1 else ''} with data; "
+            "at least 3 are needed to tell its sampling period (and each rule needs its "
+            "history before the first sample it predicts).",
+        )
     d = np.diff(t)
     h0 = float(np.median(d))
     m = np.rint(d / h0).astype(np.int64)

@@ -28,6 +28,7 @@ from ._codegen import cache_dir as cache_dir
 from ._codegen import import_line as kernel_import_line
 from ._codegen import load_module as load_generated_module
 from ._function import FunctionModel as FunctionModel
+from ._rigid_body import SingularPitchError as SingularPitchError
 from ._rigid_body import rotation_jacobian as rotation_jacobian
 from ._rigid_body import rotation_jacobian_inverse as rotation_jacobian_inverse
 from ._rigid_body import thruster_allocation as thruster_allocation
@@ -47,6 +48,7 @@ __all__ = [
     "LinearFeedback",
     "LinearForm",
     "Model",
+    "SingularPitchError",
     "SymbolicModel",
     "Vehicle",
     "builtin_vehicles",

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "SingularPitchError",
     "check_pitch",
     "coriolis_matrix",
     "euler_rate_matrix",
@@ -30,6 +31,29 @@ __all__ = [
     "skew",
     "thruster_allocation",
 ]
+
+
+class SingularPitchError(ValueError):
+    """A pitch angle within the tolerance of +-90 deg, where the Euler-angle
+    kinematics J(eta) of eq. (6) is singular.
+
+    Attributes
+    ----------
+    theta : float
+        The pitch angle (rad).
+    sample : int
+        Its index in the batch of states that was checked.
+    tolerance_deg : float
+    """
+
+    def __init__(self, message: str, theta: float, sample: int, tolerance_deg: float) -> None:
+        super().__init__(message)
+        self.theta = theta
+        self.sample = sample
+        self.tolerance_deg = tolerance_deg
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:  # survives a worker process
+        return type(self), (str(self), self.theta, self.sample, self.tolerance_deg)
 
 
 def skew(a: Any) -> np.ndarray:
@@ -191,9 +215,10 @@ def check_pitch(
 ) -> tuple[bool, float]:
     """Check pitch angles against the Euler-angle singularity at theta = +-90 deg.
 
-    Raises ValueError when some ``|theta|`` is within ``tolerance_deg`` of 90 deg
-    (modulo 180 deg). Returns ``(past_limit, worst_deg)``: whether some ``|theta|``
-    exceeds ``limit_deg`` (the caller warns) and the worst angle in degrees.
+    Raises :class:`SingularPitchError` (a ValueError) when some ``|theta|`` is within
+    ``tolerance_deg`` of 90 deg (modulo 180 deg). Returns ``(past_limit, worst_deg)``:
+    whether some ``|theta|`` exceeds ``limit_deg`` (the caller warns) and the worst
+    angle in degrees.
 
     ``theta`` is array_like (rad, any shape), or one Python float: a single state, as a
     controller stepping a model from Python passes it, is checked with ``math`` and no
@@ -227,11 +252,14 @@ def _pitch_verdict(
     """:func:`check_pitch` for the worst sample, ``c = |cos(theta)|``."""
     worst_deg = math.degrees(math.acos(min(1.0, c)))
     if c < math.sin(math.radians(tolerance_deg)):
-        raise ValueError(
+        raise SingularPitchError(
             f"pitch angle theta = {math.degrees(theta):.4g} deg (sample {sample}) is within "
             f"{tolerance_deg:g} deg of +-90 deg, where the Euler-angle kinematics J(eta) of "
             "eq. (6) is singular (T(Theta) has 1/cos(theta)). Keep |theta| away from 90 deg, "
-            "or lower the vehicle's `pitch_tolerance_deg` if you accept huge J."
+            "or lower the vehicle's `pitch_tolerance_deg` if you accept huge J.",
+            theta,
+            sample,
+            tolerance_deg,
         )
     past = limit_deg is not None and c < math.cos(math.radians(limit_deg))
     return past, worst_deg

@@ -73,6 +73,7 @@ from ._jacobians import jacobian_norms as jacobian_norms
 from ._jacobians import spectral_norm as spectral_norm
 from ._path import PathPrediction as PathPrediction
 from ._path import path_prediction as path_prediction
+from ._rates import fastest_time_constant as fastest_time_constant
 from ._sweeps import PitchSensitivity as PitchSensitivity
 from ._sweeps import pitch_sensitivity as pitch_sensitivity
 from ._sweeps import scaled_inertia as scaled_inertia
@@ -102,6 +103,7 @@ __all__ = [
     "error_constant",
     "error_curves",
     "exact_reference",
+    "fastest_time_constant",
     "first_order_gain",
     "gentle_input",
     "h_grid",

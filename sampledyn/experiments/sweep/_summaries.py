@@ -12,14 +12,9 @@ from typing import Any
 
 import numpy as np
 
+from ...sensitivity import fastest_time_constant
+
 __all__ = ["SUMMARIES", "fastest_time_constant", "motion_summary", "summarize_trajectory"]
-
-
-def fastest_time_constant(model: Any, traj: Any) -> float:
-    """Smallest 1/|lambda| (s) over the eigenvalues of df/dx along a trajectory."""
-    jac = model.jacobian(traj.t, traj.x, traj.u)
-    lam = np.abs(np.linalg.eigvals(jac)).max()
-    return float(1.0 / lam) if lam > 0 else float("inf")
 
 
 def _state(traj: Any, name: str) -> np.ndarray:
