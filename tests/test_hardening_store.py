@@ -370,3 +370,14 @@ def test_cli_refuses_a_huge_grid_at_once_naming_size_and_limit(tmp_path):
         limit = "50,000,000" if extra[1:] else f"{DEFAULT_MAX_CELLS:,}"
         assert f"limit of {limit} cells" in err
         assert not db.exists()
+
+
+def test_a_transaction_left_open_by_an_interrupt_does_not_stop_marking_the_run(tmp_path):
+    """A Ctrl-C between a BEGIN and its try leaves the connection in a transaction; the
+    run must still be marked "interrupted" (it stayed "running" once in a loaded test)."""
+    with ResultStore(tmp_path / "r.db") as st:
+        run = st.start_run(backend="in-process", planned=3, skipped=0, config={})
+        st.connection().execute("BEGIN IMMEDIATE")  # as the interrupted write left it
+        st.finish_run(run, "interrupted", 0, 0)
+        [(status,)] = st.connection().execute("SELECT status FROM runs").fetchall()
+    assert status == "interrupted"

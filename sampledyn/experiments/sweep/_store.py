@@ -519,6 +519,10 @@ class ResultStore:
     @contextmanager
     def _transaction(self) -> Iterator[None]:
         conn = self._conn
+        if conn.in_transaction:
+            # Left open by a Ctrl-C that landed between a BEGIN and its try (the write
+            # it began never ran): without this, marking the run interrupted would fail.
+            conn.execute("ROLLBACK")
         conn.execute("BEGIN IMMEDIATE")
         try:
             yield
