@@ -135,7 +135,15 @@ def build_model(
             raise ValueError("`buoyancy_pct` applies to vehicles only, not to 'auv_like'.")
         model: Any = AUVLike()
     else:
-        model = load_vehicle(vehicle)
+        try:
+            model = load_vehicle(vehicle)
+        except ValueError as exc:
+            if str(exc).startswith("unknown built-in vehicle"):  # say what else is taken here
+                raise ValueError(
+                    f"{exc} Besides vehicles, 'auv_like' names the AUV-like system of eqs. "
+                    "(9)-(10)."
+                ) from exc
+            raise
         if buoyancy_pct is not None:
             model = model.with_buoyancy(buoyancy_pct)
     if feedback is None:
