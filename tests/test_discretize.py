@@ -453,3 +453,16 @@ def test_function_model_kernels_compile_in_process():
     k3 = f(z + h / 2 * k2)
     k4 = f(z + h * k3)
     np.testing.assert_allclose(d.step(z, u), z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), rtol=1e-15)
+
+
+def test_an_operating_point_that_is_not_finite_is_refused_by_name():
+    """A NaN (or inf) operating point gave an A matrix full of NaN without a word."""
+    dm = discretize(AUVLike(), "AB4", 0.01)
+    x, u = np.array([1.0, 0.0]), np.array([0.5])
+    z = dm.steady_state(x, u)
+    with pytest.raises(ValueError, match=r"operating point `z` must be finite; z\[1\] = nan"):
+        dm.linearize(np.where(np.arange(z.size) == 1, np.nan, z), u)
+    with pytest.raises(ValueError, match=r"operating point `u` must be finite; u\[0\] = inf"):
+        dm.linearize(z, np.array([np.inf]))
+    with pytest.raises(ValueError, match=r"operating point `x` must be finite"):
+        dm.steady_state(np.array([np.nan, 0.0]), u)

@@ -440,3 +440,55 @@ def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(
     assert "pitch |theta|" not in err
     theta = float(re.search(r"\|theta\|<=([0-9.]+) deg", out).group(1))
     assert theta < 30.0
+
+
+@pytest.mark.parametrize(
+    ("args", "status", "expected"),
+    [
+        (["reproduce", "closed-loop", "--methods", "Ee"], EXIT_BAD_VALUE,
+         "'Ee' estimates the model's parameters"),
+        (["reproduce", "multistep", "--methods", "ABj4"], EXIT_BAD_VALUE,
+         "'ABj4' cannot be discretized"),
+        (["reproduce", "closed-loop", "--T", "50"], EXIT_BAD_VALUE,
+         "`transient` (--after) = 100.0 s must be in [0, T = 50 s)"),
+        (["reproduce", "multistep", "--T", "-3"], EXIT_BAD_VALUE,
+         "run length `T` must be a number of seconds > 0, got -3.0"),
+        (["reproduce", "fig3", "--seed", "-1"], EXIT_BAD_VALUE, "`seed` (--seed)"),
+        (["advise", "--vehicle", "bluerov2_heavy", "--seed", "-1"], EXIT_BAD_VALUE,
+         "`base_seed` (--seed) must be an int >= 0"),
+        (["advise", "--vehicle", "bluerov2_heavy", "--methods", ""], EXIT_USAGE,
+         "`--methods` is empty"),
+        (["evaluate", "--data", str(EXAMPLE_LOG), "--vehicle", "bluerov2_heavy",
+          "--max-missing", "3"], EXIT_USAGE, "`--max-missing` applies to `--gaps bridge`"),
+    ],
+)  # fmt: skip
+def test_third_trial_values_are_refused_before_work(args, status, expected, tmp_path, capsys):
+    out = [] if args[0] == "evaluate" else ["--out", str(tmp_path / "o")]
+    code, err = _fails([*args, *out], capsys)
+    assert code == status
+    assert expected in _one_line(err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_empty_file_is_no_store_to_read(tmp_path, capsys):
+    empty = tmp_path / "e.db"
+    empty.touch()
+    for cmd in (["results", str(empty)], ["report", str(empty), "--out", str(tmp_path / "r")]):
+        code, err = _fails(cmd, capsys)
+        assert code == EXIT_BAD_VALUE and "is an empty file, not a results store" in _one_line(err)
+    assert empty.stat().st_size == 0
+
+
+def test_closed_loop_takes_the_vehicles_its_help_lists(tmp_path, capsys):
+    assert main(["-q", "reproduce", "closed-loop", "--vehicle", "rexrov,bluerov2_heavy",
+                 "--h", "0.5", "--methods", "RK4", "--seeds", "1", "--T", "20", "--after", "5",
+                 "--out", str(tmp_path)]) == 0  # fmt: skip
+    table = (tmp_path / "closed_loop.md").read_text()
+    assert "| rexrov | 0.5 | RK4 |" in table and "| bluerov2_heavy | 0.5 | RK4 |" in table
+
+
+def test_a_misspelt_per_vehicle_section_is_said(tmp_path, capsys):
+    cfg = write_sweep(tmp_path / "s.toml", h="[0.02]", seeds=1)
+    cfg.write_text(cfg.read_text() + "\n[per_vehicle.rexrow]\nbuoyancy_pct = 1.0\n")
+    with pytest.warns(UserWarning, match=r"`per_vehicle.rexrow`.*did you mean 'rexrov'"):
+        assert main(["sweep", str(cfg), "--store", str(tmp_path / "r.db"), "--dry-run"]) == 0

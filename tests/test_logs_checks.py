@@ -205,3 +205,25 @@ def test_no_prediction_without_after_does_not_blame_after():
     errors = np.full((4, 2), np.nan)
     with pytest.raises(ValueError, match=r"^no sample of the 4 has a prediction; lengthen"):
         sd.error_norm(errors, np.arange(4.0) * 0.1)
+
+
+# -- the third trial: a period too short to be real, and a column named twice ----------
+
+
+def test_seconds_labelled_ns_are_refused_with_the_fix(frame, tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    frame.rename(columns={"t[s]": "t[ns]"}).to_csv(log, index=False)  # h = 0.1 ns
+    err = _refused(capsys, log)
+    assert "h = 1e-10 s (time column 't[ns]' read in ns) is below 1e-06 s" in err
+    assert "label it t[s]" in err
+
+
+def test_a_column_named_twice_is_refused_naming_both(frame, tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    f = frame.copy()
+    f.insert(0, "x[m] ", f["x[m]"] + 1000.0)  # the same name once stripped
+    f.to_csv(log, index=False)
+    text = log.read_text().replace("x[m] ,", "x[m],", 1)
+    log.write_text(text)
+    err = _refused(capsys, log)
+    assert "'x[m]' (columns 1, 3) more than once" in err

@@ -87,7 +87,7 @@ def _run(args: argparse.Namespace) -> int:
         return _report(args)
     out = writable_dir(args.out or "out/advise", "--out")
 
-    from ..experiments import DEFAULT_METHODS, advise
+    from ..experiments import advise
     from ..models import load_vehicle
 
     with option("--vehicle"):
@@ -99,7 +99,7 @@ def _run(args: argparse.Namespace) -> int:
         args.h,
         eta_pct,
         v_pct,
-        methods=names(args.methods) or DEFAULT_METHODS,
+        methods=_methods(args.methods),
         tolerance=args.tolerance,
         validate=not args.no_validate,
         signal=signal,
@@ -127,6 +127,19 @@ def _run(args: argparse.Namespace) -> int:
     print("\ntruncation meets noise at h (eta, v): " + "; ".join(crossings))
     print(f"best: {advice.best}; wrote {png}")
     return 0
+
+
+def _methods(text: str | None) -> tuple[str, ...]:
+    """``--methods``: the default rules when not given; an empty list is refused."""
+    if text is None:
+        from ..experiments import DEFAULT_METHODS
+
+        return tuple(DEFAULT_METHODS)
+    chosen = names(text)
+    if not chosen:
+        refuse("`--methods` is empty; give comma-separated rules, e.g. --methods E,AB4,RK4, "
+               "or leave it out for the default ones.")  # fmt: skip
+    return chosen
 
 
 def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:

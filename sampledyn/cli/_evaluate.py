@@ -70,6 +70,11 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         for name in methods:
             registry().get_method(name)
     _check_estimate(estimate)
+    if args.max_missing is not None and args.gaps != "bridge":
+        refuse(
+            f"`--max-missing` applies to `--gaps bridge` only (here --gaps {args.gaps}); "
+            "give both, or leave --max-missing out."
+        )
     if args.after is not None and not math.isfinite(args.after):
         raise ValueError(
             f"`--after` must be a finite time in s (log time), got {args.after:g}; e.g. "
@@ -91,7 +96,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             time_tolerance=args.time_tolerance,
             unwrap=not args.no_unwrap,
             gaps=args.gaps,
-            max_missing=args.max_missing,
+            max_missing=1 if args.max_missing is None else args.max_missing,
         )
     result = evaluate_log(model, data, [*methods, *estimate], norm=args.norm, after=args.after)
     if out is not None:
@@ -204,7 +209,7 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     ev.add_argument(
         "--max-missing",
         type=int,
-        default=1,
+        default=None,
         help="longest run of dropped records --gaps bridge accepts (default 1)",
     )
     ev.add_argument(

@@ -292,11 +292,13 @@ def _discrete_studies(args: argparse.Namespace) -> int:
     if args.vehicle:
         from ..models import load_vehicle
 
+        chosen = names(args.vehicle) if closed else (args.vehicle,)
+        if not closed and len(names(args.vehicle)) > 1:
+            refuse(f"reproduce multistep runs one vehicle; got --vehicle {args.vehicle}.")
         with option("--vehicle"):
-            load_vehicle(args.vehicle)
-        kwargs["vehicles" if closed else "vehicle"] = (
-            tuple(names(args.vehicle)) if closed else args.vehicle
-        )
+            for vehicle in chosen:
+                load_vehicle(vehicle)
+        kwargs["vehicles" if closed else "vehicle"] = tuple(chosen) if closed else args.vehicle
     from .. import experiments as ex
     from .. import report as rp
 

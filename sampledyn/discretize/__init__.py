@@ -15,6 +15,7 @@ from ._loop import LinearLaw as LinearLaw
 from ._loop import LoopRun as LoopRun
 from ._loop import run_loop as run_loop
 from ._model import DiscreteModel as DiscreteModel
+from ._model import check_rule as check_rule
 from ._model import discretize as discretize
 
 __all__ = [
@@ -23,6 +24,7 @@ __all__ = [
     "LinearLaw",
     "LoopRun",
     "casadi_rhs",
+    "check_rule",
     "discretize",
     "run_loop",
 ]

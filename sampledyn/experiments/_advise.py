@@ -387,6 +387,8 @@ def advise(
         raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
         raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
+    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
+        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")

@@ -90,6 +90,14 @@ class AUVStudy:
             if not isinstance(r, int | np.integer) or r < 1:
                 raise ValueError(f"`hold_ratios` must be positive integers, got {r!r}.")
         check_time_grid(self.T, self.after, self.h)
+        if (
+            isinstance(self.seed, bool)
+            or not isinstance(self.seed, int | np.integer)
+            or self.seed < 0
+        ):
+            raise ValueError(
+                f"`seed` (--seed) of the multilevel input must be an int >= 0, got {self.seed!r}."
+            )
 
 
 def auv_config(study: AUVStudy) -> SweepConfig:

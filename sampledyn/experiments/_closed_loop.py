@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from ..discretize import LinearLaw, discretize, run_loop
+from ..discretize import LinearLaw, check_rule, discretize, run_loop
 from ..methods import get_method
 from .sweep import (
     CELL_ERRORS,
@@ -138,13 +138,26 @@ class ClosedLoopStudy:
     rtol: float = 1e-10
 
     def __post_init__(self) -> None:
-        if not 0 <= self.transient < self.T:
-            raise ValueError(f"`transient` = {self.transient} s must be in [0, T = {self.T} s).")
-        if self.seeds < 1:
-            raise ValueError(f"`seeds` must be >= 1, got {self.seeds}.")
+        check_run(self.T, self.transient, "transient", self.seeds, self.base_seed)
         for name in self.methods:
             if name != "ZOH":
-                get_method(name)
+                check_rule(name)  # the design needs the rule's discrete-time model
+
+
+def check_run(T: Any, after: Any, after_name: str, seeds: Any, base_seed: Any) -> None:
+    """The run length, the measured window and the seeds of a controller study."""
+    if isinstance(T, bool) or not isinstance(T, int | float) or not (math.isfinite(T) and T > 0):
+        raise ValueError(f"run length `T` must be a number of seconds > 0, got {T!r}.")
+    if isinstance(after, bool) or not isinstance(after, int | float) or not 0 <= after < T:
+        raise ValueError(
+            f"`{after_name}` (--after) = {after!r} s must be in [0, T = {T:g} s): the "
+            "residuals are measured from there to the end of the run; give a smaller "
+            "value or a longer T."
+        )
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
+    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
+        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
 
 
 def trim(vehicle: Any, surge: float, depth: float, heading: float) -> tuple[np.ndarray, np.ndarray]:
@@ -430,7 +443,7 @@ class ClosedLoopCells(CellKind):
 
     def check_method(self, name: str) -> None:
         if name != "ZOH":
-            get_method(name)
+            check_rule(name)
 
     def method_order(self, name: str) -> int | None:
         return None if name == "ZOH" else int(get_method(name).order)

@@ -33,10 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from ..discretize import discretize
-from ..methods import get_method
+from ..discretize import check_rule, discretize
 from ..noise import add_noise
-from ._closed_loop import study_order
+from ._closed_loop import check_run, study_order
 from .sweep import (
     CELL_ERRORS,
     ChunkResult,
@@ -76,12 +75,11 @@ class MultistepStudy:
     base_seed: int = 0
 
     def __post_init__(self) -> None:
-        if not 0 <= self.after < self.T:
-            raise ValueError(f"`after` = {self.after} s must be in [0, T = {self.T} s).")
-        if self.K < 1 or self.seeds < 1:
-            raise ValueError(f"`K` and `seeds` must be >= 1, got {self.K} and {self.seeds}.")
+        check_run(self.T, self.after, "after", self.seeds, self.base_seed)
+        if isinstance(self.K, bool) or not isinstance(self.K, int) or self.K < 1:
+            raise ValueError(f"horizon `K` must be an int >= 1, got {self.K!r}.")
         for name in self.methods:
-            get_method(name)
+            check_rule(name)  # rollouts run the rule's discrete-time model
 
 
 def _rms_norm(err: np.ndarray) -> float:
@@ -124,6 +122,9 @@ class MultistepCells(PredictionCells):
     option_keys = ("horizon",)
     subsample = False
     measure_label = "horizons"
+
+    def check_method(self, name: str) -> None:
+        check_rule(name)
 
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         K = options.get("horizon", 20)

@@ -20,7 +20,7 @@ from ._read import LogData
 from ._time import TIME_UNITS
 from ._units import LogFormatError, split_header
 
-__all__ = ["MAX_H_RATE", "LogEvaluation", "evaluate_log"]
+__all__ = ["MAX_H_RATE", "MIN_H_S", "LogEvaluation", "evaluate_log"]
 
 #: Largest h / tau (tau: the model's fastest time constant on the logged states) that
 #: :func:`evaluate_log` accepts. Beyond it the fastest mode decays by more than
@@ -30,6 +30,11 @@ __all__ = ["MAX_H_RATE", "LogEvaluation", "evaluate_log"]
 #: coarsely is most likely a log whose time unit is wrong: ms read as s multiplies
 #: h / tau by 1000, s read as min by 60 (the example log: h / tau = 0.43).
 MAX_H_RATE = 10.0
+
+#: Smallest sampling period (s) :func:`evaluate_log` accepts: no vehicle log records
+#: its states at more than 1 MHz, so a shorter step is a time unit read wrong (seconds
+#: labelled ns give h = 1e-10 s).
+MIN_H_S = 1e-6
 
 
 @dataclass(frozen=True)
@@ -170,11 +175,31 @@ def _unit_hint(data: LogData, tau: float, limit: float) -> str:
 def _check_period(model: Any, data: LogData, limit: float) -> tuple[str, ...]:
     """Refuse a sampling period far beyond the model's fastest rate on the logged
     states (:data:`MAX_H_RATE`); else a note with h / tau."""
+    h = data.traj.h
+    if h < MIN_H_S:
+        unit = data.time_unit
+        alt = ""
+        if unit in TIME_UNITS:
+            mult, div = TIME_UNITS[unit]
+            raw = h * div / mult  # the step in the column's own numbers
+            fits = [n for n, (m, d) in TIME_UNITS.items()
+                    if n not in (unit, "µs") and 1e-3 <= raw * m / d <= 10.0]  # fmt: skip
+            if fits:
+                name = split_header(data.time_column)[0]
+                alt = (
+                    f" is the column in {fits[0]}? label it {name}[{fits[0]}] (or give "
+                    f"unit = {fits[0]!r} in the mapping file)."
+                )
+        raise LogFormatError(
+            data.time_column,
+            f"{data.source}: sampling period h = {h:.3g} s (time column "
+            f"{data.time_column!r} read in {unit}) is below {MIN_H_S:g} s, faster than any "
+            f"vehicle log is recorded;{alt or ' check the time column and its unit.'}",
+        )
     try:
         tau = fastest_time_constant(model, data.traj)
     except JacobianUnavailableError:
         return ("h not checked against the model's rates: the model has no Jacobian",)
-    h = data.traj.h
     if h > limit * tau:
         raise LogFormatError(
             data.time_column,

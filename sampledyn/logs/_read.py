@@ -400,6 +400,26 @@ def log_from_frame(
     return LogData(traj, valid, source, smp.jitter, tuple(out_notes), smp, rows, str(tcol), tunit)
 
 
+def _refuse_repeated_columns(path: Path) -> None:
+    """A CSV header naming a column twice (pandas would rename the second 'x[m].1' and
+    the first would be used without a word)."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8-sig") as fh:
+        names = [n.strip() for n in next(csv.reader(fh), [])]
+    twice = sorted({n for n in names if n and names.count(n) > 1})
+    if twice:
+        where = ", ".join(
+            f"{n!r} (columns {', '.join(str(i + 1) for i, m in enumerate(names) if m == n)})"
+            for n in twice
+        )
+        raise LogFormatError(
+            twice[0],
+            f"{path.name}: the header names {where} more than once; which one holds the "
+            "data is ambiguous. Rename or remove the extra column.",
+        )
+
+
 def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
     """A CSV or Parquet file as a DataFrame; a CSV's time column is read as text, so
     that decimal stamps (1700000000.123456789) are read exactly."""
@@ -410,6 +430,7 @@ def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
         if parquet:
             return pd.read_parquet(path), False
         header = pd.read_csv(path, skipinitialspace=True, nrows=0)
+        _refuse_repeated_columns(path)
         tcol = _columns(list(header.columns), model, mapping, path.name)[0]["t"][0]
         return pd.read_csv(path, skipinitialspace=True, dtype={tcol: str}), True
     except (ValueError, OSError, pd.errors.ParserError) as exc:

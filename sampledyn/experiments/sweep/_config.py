@@ -491,8 +491,33 @@ def _apply_per_vehicle(
                 f"{', '.join(valid)}.",
             )
     vehicle = str(data.get("vehicle", _DEFAULT_VEHICLE))
+    _warn_unknown_vehicle_names(table, vehicle, src)
     entry = table.get(vehicle) or table.get(Path(vehicle).stem) or {}
     return {**entry, **{k: v for k, v in data.items() if k != "per_vehicle"}}
+
+
+def _warn_unknown_vehicle_names(table: Mapping[str, Any], vehicle: str, src: str) -> None:
+    """Warn about a ``per_vehicle`` entry that names no built-in vehicle and not this
+    file's vehicle: most likely a misspelling, which would be ignored without a word
+    (an entry for a vehicle file used with this study elsewhere is legitimate, so it is
+    a warning, not an error)."""
+    import difflib
+    import warnings
+
+    from ...models import builtin_vehicles
+
+    known = {*builtin_vehicles(), "auv_like", vehicle, Path(vehicle).stem}
+    for name in table:
+        if name not in known:
+            close = difflib.get_close_matches(name, sorted(known), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            warnings.warn(
+                f"`per_vehicle.{name}`{_where(src)} names no built-in vehicle and not this "
+                f"sweep's vehicle {vehicle!r}: it applies only when `vehicle` is {name!r} "
+                f"or a file {name}.toml{hint}",
+                UserWarning,
+                stacklevel=4,
+            )
 
 
 def _methods(data: Mapping[str, Any], src: str, kind: CellKind) -> tuple[str, ...]:

@@ -369,6 +369,11 @@ class ResultStore:
         kind = inspect_store(self.path)
         if kind == "missing" and (readonly or not create):
             raise FileNotFoundError(errno.ENOENT, "no results store", str(self.path))
+        if kind == "empty" and readonly:
+            raise NotAStoreError(
+                f"{str(self.path)!r} is an empty file, not a results store (nothing to read; "
+                "`sampledyn sweep FILE --store PATH` writes one)."
+            )
         if readonly:
             self._conn = self._connect_readonly()
         elif kind == "missing":
