@@ -227,3 +227,15 @@ def test_a_column_named_twice_is_refused_naming_both(frame, tmp_path, capsys):
     log.write_text(text)
     err = _refused(capsys, log)
     assert "'x[m]' (columns 1, 3) more than once" in err
+
+
+def test_columns_the_model_does_not_use_are_named_in_the_notes(vehicle, frame, tmp_path):
+    log = tmp_path / "log.csv"
+    f = frame.copy()
+    f["battery[V]"] = 15.8
+    f["mode"] = "manual"
+    f.to_csv(log, index=False)
+    notes = read_log(log, vehicle).notes
+    assert "columns not used by the model: battery[V], mode" in notes
+    frame.to_csv(log, index=False)
+    assert not any("not used" in n for n in read_log(log, vehicle).notes)

@@ -375,6 +375,11 @@ def log_from_frame(
     ]
     if converted:
         out_notes.append("converted " + ", ".join(converted))
+    used = {str(cols[n][0]) for n in (*names, "t")} | {str(c) for c in stray}
+    unused = [str(c) for c in frame.columns if str(c) not in used]
+    if unused:
+        more = f" and {len(unused) - 8} more" if len(unused) > 8 else ""
+        out_notes.append(f"columns not used by the model: {', '.join(unused[:8])}{more}")
     if unwrap:  # before any filling, so that no interpolation spans a wrap-around
         for k, unit in enumerate(model.state_units):
             if unit == "rad":
