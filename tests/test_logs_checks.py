@@ -239,3 +239,15 @@ def test_columns_the_model_does_not_use_are_named_in_the_notes(vehicle, frame, t
     assert "columns not used by the model: battery[V], mode" in notes
     frame.to_csv(log, index=False)
     assert not any("not used" in n for n in read_log(log, vehicle).notes)
+
+
+def test_iso_text_under_a_seconds_header_says_to_drop_the_unit(vehicle, frame, tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    f = frame.copy()
+    assert frame["t[s]"].max() < 60.0
+    f["t[s]"] = [f"2024-05-02T10:00:{t:09.6f}+02:00" for t in frame["t[s]"]]
+    f.to_csv(log, index=False)
+    err = _refused(capsys, log)
+    assert "column 't[s]' is not numeric" in err and "drop the unit ('t' in the header" in err
+    f.rename(columns={"t[s]": "t"}).to_csv(log, index=False)
+    assert read_log(log, vehicle).traj.h == pytest.approx(0.1)

@@ -245,8 +245,15 @@ def read_clock(
             try:
                 values = np.asarray(values, dtype=float)
             except ValueError as exc:
+                name = str(column).split("[", 1)[0]
+                hint = (
+                    f"; it holds date-time text: drop the unit ('{name}' in the header, or "
+                    "unit = 'datetime' in a mapping file) to read it as ISO-8601"
+                    if _looks_like_iso(values)
+                    else ""
+                )
                 raise LogFormatError(
-                    column, f"{src}: column {column!r} is not numeric: {exc}"
+                    column, f"{src}: column {column!r} is not numeric: {exc}{hint}"
                 ) from exc
             dtype = values.dtype
         else:
@@ -447,3 +454,14 @@ def check_policy(gaps: str, max_missing: Any, tolerance: Any) -> None:
             "time_tolerance",
             f"`time_tolerance` must be in (0, 0.5) (a fraction of h), got {tolerance!r}.",
         )
+
+
+def _looks_like_iso(values: Any) -> bool:
+    """Does the first stamp read as an ISO-8601 date-time?"""
+    import datetime as dt
+
+    try:
+        dt.datetime.fromisoformat(str(np.asarray(values, dtype=object)[0]).strip())
+    except (ValueError, IndexError):
+        return False
+    return True
