@@ -492,3 +492,10 @@ def test_a_misspelt_per_vehicle_section_is_said(tmp_path, capsys):
     cfg.write_text(cfg.read_text() + "\n[per_vehicle.rexrow]\nbuoyancy_pct = 1.0\n")
     with pytest.warns(UserWarning, match=r"`per_vehicle.rexrow`.*did you mean 'rexrov'"):
         assert main(["sweep", str(cfg), "--store", str(tmp_path / "r.db"), "--dry-run"]) == 0
+
+
+def test_an_input_table_without_a_name_asks_for_one(capsys):
+    code, err = _fails(["advise", "--vehicle", "bluerov2_heavy", "--input", "{ scale = 0.3 }"],
+                       capsys)  # fmt: skip
+    assert code == EXIT_BAD_VALUE
+    assert "has no `name`; give one of fig6, gentle" in _one_line(err)

@@ -54,6 +54,11 @@ def available_inputs() -> dict[str, str]:
 
 def _check(table: Mapping[str, _InputEntry], what: str, spec: Mapping[str, Any]) -> dict[str, Any]:
     name = spec.get("name")
+    if name is None:
+        raise ValueError(
+            f"the {what} table {dict(spec)!r} has no `name`; give one of "
+            f"{', '.join(sorted(table))}, e.g. {{ name = {sorted(table)[0]!r}, ... }}."
+        )
     if not isinstance(name, str) or name not in table:
         raise ValueError(f"unknown {what} {name!r}; registered: {', '.join(sorted(table))}.")
     entry = table[name]
