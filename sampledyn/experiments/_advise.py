@@ -48,6 +48,7 @@ from ..sensitivity import (
     largest_h,
     period_ratio,
     rank_key,
+    samples_needed,
     state_blocks,
     supported_method,
     usable_periods,
@@ -401,7 +402,7 @@ def advise(
                 f"reference run length `T` must be a finite number of seconds > 0, got {T!r}."
             )
         longest = max(ms, key=lambda m: m.history)
-        t_min = (longest.history + 2) * h  # history + 3 predictions at h
+        t_min = (samples_needed(ms) - 1) * h
         if T < t_min:
             raise ValueError(
                 f"reference run length `T` = {T:g} s is too short for h = {h:g} s: "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -149,22 +150,25 @@ def _check_length(data: LogData, methods: Sequence[Any]) -> None:
             )
 
 
-def _unit_hint(data: LogData, tau: float, limit: float) -> str:
-    """'is the column in ms? label it t[ms]': the time unit that brings h / tau
-    under ``limit`` with the least change, where the column's unit is a time unit."""
+def _unit_hint(
+    data: LogData, low: float, high: float, otherwise: str, no_unit: str | None = None
+) -> str:
+    """'is the column in ms? label it t[ms]': the time unit, other than the column's,
+    that puts h in [low, high] s with the least change; ``otherwise`` where none does,
+    ``no_unit`` (default ``otherwise``) where the column's unit is no time unit."""
     unit = data.time_unit
     if unit not in TIME_UNITS:
-        return "check the time stamps and the vehicle."
+        return otherwise if no_unit is None else no_unit
     mult, div = TIME_UNITS[unit]
     raw = data.traj.h * div / mult  # the step in the column's own numbers
     fits = [
-        (raw * m / d, name)
+        (abs(math.log(m / d * div / mult)), name)
         for name, (m, d) in TIME_UNITS.items()
-        if name not in (unit, "µs") and raw * m / d <= limit * tau
+        if name not in (unit, "µs") and low <= raw * m / d <= high
     ]
     if not fits:
-        return "check the time column's unit and the vehicle."
-    alt = max(fits)[1]
+        return otherwise
+    alt = min(fits)[1]
     name = split_header(data.time_column)[0]
     return (
         f"is the column in {alt}? label it {name}[{alt}] (or give unit = {alt!r} in the "
@@ -174,27 +178,15 @@ def _unit_hint(data: LogData, tau: float, limit: float) -> str:
 
 def _check_period(model: Any, data: LogData, limit: float) -> tuple[str, ...]:
     """Refuse a sampling period far beyond the model's fastest rate on the logged
-    states (:data:`MAX_H_RATE`); else a note with h / tau."""
+    states (:data:`MAX_H_RATE`) or below :data:`MIN_H_S`; else a note with h / tau."""
     h = data.traj.h
     if h < MIN_H_S:
-        unit = data.time_unit
-        alt = ""
-        if unit in TIME_UNITS:
-            mult, div = TIME_UNITS[unit]
-            raw = h * div / mult  # the step in the column's own numbers
-            fits = [n for n, (m, d) in TIME_UNITS.items()
-                    if n not in (unit, "µs") and 1e-3 <= raw * m / d <= 10.0]  # fmt: skip
-            if fits:
-                name = split_header(data.time_column)[0]
-                alt = (
-                    f" is the column in {fits[0]}? label it {name}[{fits[0]}] (or give "
-                    f"unit = {fits[0]!r} in the mapping file)."
-                )
+        hint = _unit_hint(data, 1e-3, 10.0, "check the time column and its unit.")
         raise LogFormatError(
             data.time_column,
             f"{data.source}: sampling period h = {h:.3g} s (time column "
-            f"{data.time_column!r} read in {unit}) is below {MIN_H_S:g} s, faster than any "
-            f"vehicle log is recorded;{alt or ' check the time column and its unit.'}",
+            f"{data.time_column!r} read in {data.time_unit}) is below {MIN_H_S:g} s, faster "
+            f"than any vehicle log is recorded; {hint}",
         )
     try:
         tau = fastest_time_constant(model, data.traj)
@@ -207,7 +199,14 @@ def _check_period(model: Any, data: LogData, limit: float) -> tuple[str, ...]:
             f"{data.time_column!r} read in {data.time_unit}) is {h / tau:.3g} times the "
             f"model's fastest time constant tau = {tau:.3g} s (1/max|eig(df/dx)| on the "
             f"logged states), beyond h/tau = {limit:g}: the samples cannot resolve the "
-            f"model's fastest motion; {_unit_hint(data, tau, limit)}",
+            f"model's fastest motion; "
+            + _unit_hint(
+                data,
+                0.0,
+                limit * tau,
+                "check the time column's unit and the vehicle.",
+                "check the time stamps and the vehicle.",
+            ),
         )
     return (
         f"h / tau = {h / tau:.3g}, tau = {tau:.3g} s the model's fastest time constant on "

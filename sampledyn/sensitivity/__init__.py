@@ -53,6 +53,7 @@ from ._curves import error_curves as error_curves
 from ._curves import h_grid as h_grid
 from ._curves import largest_h as largest_h
 from ._curves import rank_key as rank_key
+from ._curves import samples_needed as samples_needed
 from ._curves import usable_periods as usable_periods
 from ._domain import Domain as Domain
 from ._domain import check_vehicle as check_vehicle
@@ -128,5 +129,6 @@ __all__ = [
     "supported_method",
     "truncation_errors",
     "truncation_estimate",
+    "samples_needed",
     "usable_periods",
 ]

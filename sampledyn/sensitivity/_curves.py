@@ -94,10 +94,16 @@ def h_grid(h: float, h_min: float = 0.02, h_max: float | None = None) -> tuple[f
     return h0, sorted(k for k in ks if k >= 1)
 
 
+def samples_needed(methods: Sequence[Any]) -> int:
+    """Samples a run must hold for the error curves of ``methods``: the longest history
+    and 3 predictions."""
+    return max(supported_method(m, "methods").history for m in methods) + 3
+
+
 def usable_periods(methods: Sequence[Any], base: Trajectory, ks: Sequence[int]) -> list[int]:
-    """The multiples k of ``base.h`` that leave at least 3 predictions for every rule."""
-    ms = [supported_method(m, "methods") for m in methods]
-    need = max(m.history for m in ms) + 3
+    """The multiples k of ``base.h`` that leave at least 3 predictions for every rule
+    (:func:`samples_needed`)."""
+    need = samples_needed(methods)
     return [k for k in ks if (base.n_samples - 1) // k + 1 >= need]
 
 
