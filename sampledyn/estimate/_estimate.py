@@ -390,7 +390,7 @@ def estimate(
     model (AB2, h = 0.05 s, T = 4000 s, uniform noise of half-width 0.1 on y and
     0.02 on x, sigma_y**2 = 3.3e-3): bias of beta +0.0127 (25 % of |beta| = 0.05),
     of alpha -0.0015, of gamma -0.0042, each within 5 % of the formula; see
-    ``tests/test_estimate.py``. A larger h, or instruments (not implemented), reduce
+    ``tests/estimate/test_estimate.py``. A larger h, or instruments (not implemented), reduce
     it.
 
     **Free weights** (``free_weights=True``). With theta fixed the one-step error is

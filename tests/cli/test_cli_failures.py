@@ -33,7 +33,7 @@ from sampledyn.cli import (
 )
 from sampledyn.errors import ERROR_NORMS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_LOG = ROOT / "examples" / "rov_log.csv"
 
 

@@ -19,7 +19,7 @@ import sampledyn as sd
 from sampledyn.models import ClosedLoop, FunctionModel, LinearFeedback, SymbolicModel
 from sampledyn.models._base import JAC_SIG, RHS_SIG
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 # ---------------------------------------------------------- the AUV-like system

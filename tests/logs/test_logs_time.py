@@ -16,7 +16,7 @@ import sampledyn as sd
 from sampledyn.cli import EXIT_BAD_VALUE, main
 from sampledyn.logs import LogFormatError, evaluate_log, log_from_frame, read_log
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 METHODS = "E,AB2,AB4,RK4,T"
 
 

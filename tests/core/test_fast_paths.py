@@ -18,7 +18,7 @@ import pytest
 
 import sampledyn as sd
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _run_python(code: str) -> dict:

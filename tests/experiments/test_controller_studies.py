@@ -2,7 +2,7 @@
 ``reproduce multistep`` plan their cells with the engine's planner, compute them on its
 backends and keep them in its store.
 
-The fixtures ``tests/data/closed_loop_pre_engine.csv`` and
+The fixtures ``tests/experiments/data/closed_loop_pre_engine.csv`` and
 ``multistep_pre_engine.csv`` were written by the code before the studies moved onto
 the engine (commit 04f6bc2, the studies' own loops), with the options of ``_CL`` and
 ``_MS``; the engine must give the same rows, every column as text, bit for bit, in
@@ -32,7 +32,7 @@ from sampledyn.experiments.sweep import (
     plan_study,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = Path(__file__).parent / "data"
 _CL = ["closed-loop", "--T", "20", "--after", "5", "--seeds", "2", "--h", "0.5"]
 _MS = ["multistep", "--T", "20", "--after", "5", "--seeds", "2", "--h", "0.5"]

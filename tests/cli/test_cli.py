@@ -55,7 +55,7 @@ def test_estimated_rules_are_known_to_a_fresh_command():
     import sys
     from pathlib import Path
 
-    log = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
+    log = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
     cmd = [sys.executable, "-m", "sampledyn.cli", "evaluate", "--data", str(log),
            "--vehicle", "bluerov2_heavy", "--methods", "E", "--estimate", "ABe2",
            "--after", "2"]  # fmt: skip

@@ -18,7 +18,7 @@ from sampledyn.cli import EXIT_BAD_VALUE, main
 from sampledyn.logs import MAX_H_RATE, LogFormatError, evaluate_log, read_log
 from sampledyn.models import SingularPitchError
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 
 
 def _evaluate_cli(log, vehicle="bluerov2_heavy", *extra):

@@ -14,7 +14,7 @@ import pytest
 from sampledyn.cli import EXIT_BAD_VALUE, main
 from sampledyn.logs import LogFormatError, evaluate_log, read_log, synthetic_log
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rov_log.csv"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 
 
 def _errors(model, data, methods=("E", "AB2", "RK4")):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TITLE = (
     "On the Adequacy of Adams-Bashforth Sampled-Data Models for Characterizing Complex "
     "Underwater-Vehicle Dynamics with Noisy Measurements"

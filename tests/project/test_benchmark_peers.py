@@ -16,7 +16,7 @@ import pytest
 
 import sampledyn as sd
 
-_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_peers.py"
+_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_peers.py"
 
 
 @pytest.fixture(scope="module")

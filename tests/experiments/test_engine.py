@@ -31,7 +31,7 @@ from sampledyn.cli import main
 from sampledyn.experiments import FIG7_STUDY_FILE, ROVStudy, run_study
 from sampledyn.experiments.sweep import load_config, plan_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = Path(__file__).parent / "data"
 EXAMPLE = ROOT / "examples" / "sweep_fig7.toml"
 SHORT = {"T": "20.0", "after": "5.0", "seeds": "2"}

@@ -26,7 +26,7 @@ from _log_fixtures import (  # noqa: E402  (after the optional extras are known)
     write_ros2_bag,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DOCS = (ROOT / "docs" / "logs.md", ROOT / "examples" / "README.md")
 WRITERS = {
     "ros2_bluerov2_heavy.toml": write_ros2_bag,

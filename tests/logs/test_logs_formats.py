@@ -33,7 +33,7 @@ from _log_fixtures import (  # noqa: E402  (after the optional extras are known)
     write_ros2_bag,
 )
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 @pytest.fixture(scope="module")
