@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ._trajectory import NumericalError, Trajectory
-from .methods import get_method
+from .methods import Predictor, get_method
 from .models import SingularPitchError
 
 __all__ = ["predict"]
@@ -49,8 +49,9 @@ def predict(
     ------
     ValueError
         for NaN or inf in ``measured`` (naming the first bad sample), sizes that do
-        not fit the model, or sample times the method cannot handle (the fixed-step
-        rules need a uniform grid; the message names the largest step deviation).
+        not fit the model, sample times the method cannot handle (the fixed-step
+        rules need a uniform grid; the message names the largest step deviation), or
+        a rule that predicts nothing on sampled data (ZOH, a discrete-time system only).
     SingularPitchError
         (a ValueError) where the model refuses a state near its singularity (a
         vehicle's pitch near +-90 deg): the message says whether the measured data
@@ -58,6 +59,12 @@ def predict(
         the sample whose prediction did.
     """
     m = get_method(method)
+    if not isinstance(m, Predictor):
+        raise ValueError(
+            f"`method` {m.name!r} does not predict on sampled data (it is a discrete-time "
+            "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
+            "(`sampledyn methods` lists them)."
+        )
     check_measured(model, measured)
     try:
         return np.asarray(m.predict(model, measured, signal, cache=cache))
