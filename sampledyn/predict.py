@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ._trajectory import NumericalError, Trajectory
-from .methods import Predictor, get_method
+from .methods import get_predictor
 from .models import SingularPitchError
 
 __all__ = ["predict"]
@@ -58,13 +58,7 @@ def predict(
         hold it, or the rule formed it between samples, and then names the rule and
         the sample whose prediction did.
     """
-    m = get_method(method)
-    if not isinstance(m, Predictor):
-        raise ValueError(
-            f"`method` {m.name!r} does not predict on sampled data (it is a discrete-time "
-            "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
-            "(`sampledyn methods` lists them)."
-        )
+    m = get_predictor(method)
     check_measured(model, measured)
     try:
         return np.asarray(m.predict(model, measured, signal, cache=cache))

@@ -152,7 +152,6 @@ class EstimatedAdamsBashforth:
         return self.estimate_and_predict(model, data, signal)[0]
 
 
-
 def estimated_euler() -> EstimatedAdamsBashforth:
     """Ee: estimated Euler, ABe1 under its own name."""
     return EstimatedAdamsBashforth(1, name="Ee")

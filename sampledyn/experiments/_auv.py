@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ERROR_NORMS
-from ..methods import Predictor, families, get_method
+from ..methods import Predictor, families, get_method, get_predictor
 from ..models import AUVLike
 from .sweep import SweepConfig, check_time_grid, fastest_time_constant, run_study
 
@@ -175,7 +175,7 @@ def run_auv_study(
         ratio = int(round(tconf["input"]["hold"] / study.h))
         key = (c["traj_key"], c["method"])
         if key not in rows:
-            method = get_method(c["method"])
+            method = get_predictor(c["method"])
             rows[key] = {"hold_ratio": ratio, "method": method.name, "order": int(method.order)}
         row = rows[key]
         column = MASKED_NORMS.get(c["norm"], c["norm"])

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import error_norm, error_window, local_errors
 from ..estimate import EstimationResult
-from ..methods import Estimator, Predictor, fixed_step, get_method
+from ..methods import Estimator, fixed_step, get_method, get_predictor
 from ..models import JacobianUnavailableError
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
@@ -330,13 +330,7 @@ def evaluate_log(
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
     error_window(data.traj.t, after)  # checks `after` before any work
-    rules = [get_method(name) for name in methods]
-    for rule in rules:
-        if not isinstance(rule, Predictor):
-            raise ValueError(
-                f"`methods`: {rule.name!r} predicts nothing on sampled data (a "
-                "discrete-time system only); give predictors, e.g. ['E', 'AB2']."
-            )
+    rules = [get_predictor(name, "methods") for name in methods]
     _check_length(data, rules)
     notes = _time_base(data, rules)
     segments = data.segments

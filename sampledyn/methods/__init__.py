@@ -20,6 +20,7 @@ from ._registry import available_methods as available_methods
 from ._registry import describe_methods as describe_methods
 from ._registry import families as families
 from ._registry import get_method as get_method
+from ._registry import get_predictor as get_predictor
 from ._registry import register_family as register_family
 from ._base import DiscreteStep as DiscreteStep
 from ._base import DiscreteTimeSystem as DiscreteTimeSystem
@@ -107,6 +108,7 @@ __all__ = [
     "families",
     "fixed_step",
     "get_method",
+    "get_predictor",
     "grid_steps",
     "lagged_jacobians",
     "lagrange_integrals",

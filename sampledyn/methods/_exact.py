@@ -30,9 +30,7 @@ import numpy as np
 __all__ = ["ExactFlow", "ExactHold", "zoh_matrices"]
 
 
-def zoh_matrices(
-    F: np.ndarray, G: np.ndarray, h: float
-) -> tuple[np.ndarray, np.ndarray]:
+def zoh_matrices(F: np.ndarray, G: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
     """``(A_d, B_d) = (e^{F h}, int_0^h e^{F s} ds G)``, shapes (n, n) and (n, m), from
     Van Loan's block exponential ``exp(h [[F, G], [0, 0]])`` (scipy's Pade
     scaling-and-squaring ``expm``)."""
@@ -82,7 +80,9 @@ class ExactFlow:
             without a ``solver`` that integrates.
         """
         if solver is None or not hasattr(solver, "flow"):
-            raise ValueError("ZOH's step is the exact flow: a `solver` with flow(x, u, h) is needed.")
+            raise ValueError(
+                "ZOH's step is the exact flow: a `solver` with flow(x, u, h) is needed."
+            )
         return [solver.flow(blocks[0], u, h)]
 
     def linearize(

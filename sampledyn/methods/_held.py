@@ -182,7 +182,6 @@ class HeldHistoryRule(AdamsRule):
         return d if fixed_step(data) is not None else d[uniform_stencils(data, s)]
 
 
-
 @dataclass(frozen=True)
 class HeldInputAdamsBashforth(HeldHistoryRule):
     """ABu_s: Adams-Bashforth of order s with the f-history taken at the current input.

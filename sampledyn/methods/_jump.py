@@ -227,4 +227,3 @@ def collocation_weights(tau: np.ndarray) -> np.ndarray:
     for j in range(1, s):
         out[:, j - 1] = lagrange_integrals(tau, tau[:, j], 0.0)
     return out
-

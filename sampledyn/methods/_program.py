@@ -118,7 +118,9 @@ class StepProgram:
         for kind, idx in refs:
             limit = len(self.layout) if kind == "z" else stage
             if kind not in ("z", "k", "y") or not 0 <= idx < limit:
-                raise ValueError(f"{self.name}: {where} refers to ({kind!r}, {idx}), which does not exist.")
+                raise ValueError(
+                    f"{self.name}: {where} refers to ({kind!r}, {idx}), which does not exist."
+                )
 
     def _point(self, st: Stage) -> Ref | Combination:
         """An implicit stage's point as a Combination (a bare block: no terms)."""
@@ -130,7 +132,7 @@ class StepProgram:
 
     @property
     def kernels(self) -> frozenset[str]:
-        """"rhs", and "jac" when a stage is implicit (Newton with df/dx)."""
+        """ "rhs", and "jac" when a stage is implicit (Newton with df/dx)."""
         return frozenset({"rhs", "jac"} if any(s.implicit for s in self.stages) else {"rhs"})
 
     @property
@@ -169,12 +171,21 @@ class StepProgram:
                 + '@njit(inline="always", error_model="numpy")\n'
                 + "def step_f(t, z, k0, u, p, h, out):\n    nx = z.shape[0] // NB\n" + rest
             )  # fmt: skip
-        return head + deco + "def step(t, z, u, p, h, out):\n    nx = z.shape[0] // NB\n" + self._body(0)
+        return (
+            head
+            + deco
+            + "def step(t, z, u, p, h, out):\n    nx = z.shape[0] // NB\n"
+            + self._body(0)
+        )
 
     def _used_later(self, kind: str, i: int) -> bool:
         refs: list[Ref] = []
         for item in [*(s.point for s in self.stages[i + 1 :]), self.update, *self.carry]:
-            refs += [item.base, *(r for _, r in item.terms)] if isinstance(item, Combination) else [item]
+            refs += (
+                [item.base, *(r for _, r in item.terms)]
+                if isinstance(item, Combination)
+                else [item]
+            )
         return (kind, i) in refs
 
     def _body(self, start: int) -> str:
@@ -192,7 +203,11 @@ class StepProgram:
         kind, idx = ref
         if kind == "z":
             return "z[j]" if idx == 0 else f"z[{idx} * nx + j]"
-        if kind == "y" and not isinstance(self.stages[idx].point, Combination) and not self.stages[idx].implicit:
+        if (
+            kind == "y"
+            and not isinstance(self.stages[idx].point, Combination)
+            and not self.stages[idx].implicit
+        ):
             return self._at(self.stages[idx].point)  # type: ignore[arg-type]
         return f"{kind}{idx}[j]"
 
@@ -234,7 +249,9 @@ class StepProgram:
         assert isinstance(point, Combination)
         gamma = float(st.implicit)
         step0 = "h" if st.c == 1.0 else f"({float(st.c)!r} * h)"
-        terms = " + ".join([f"{float(c)!r} * {self._at(r)}" for c, r in point.terms] + [f"{gamma!r} * k{i}[j]"])
+        terms = " + ".join(
+            [f"{float(c)!r} * {self._at(r)}" for c, r in point.terms] + [f"{gamma!r} * k{i}[j]"]
+        )
         lines = [
             f"y{i} = np.empty(nx)",
             "J = np.empty((nx, nx))",
@@ -360,9 +377,7 @@ class StepProgram:
         return np.concatenate([x if kind == "x" else f for kind, _ in self.layout])
 
 
-def _value(
-    item: Ref | Combination, vals: dict[Ref, Any], hv: Any, hm: Any
-) -> tuple[Any, Any, Any]:
+def _value(item: Ref | Combination, vals: dict[Ref, Any], hv: Any, hm: Any) -> tuple[Any, Any, Any]:
     """(value, d/dz, d/du) of a reference or a combination; ``hv`` and ``hm`` are h
     shaped to scale vectors and matrices (a float, or per row (R, 1) and (R, 1, 1))."""
     if not isinstance(item, Combination):

@@ -21,10 +21,9 @@ import importlib
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from ._base import Method
+from ._base import Method, Predictor
 
 __all__ = [
     "BUILT_IN",
@@ -33,6 +32,7 @@ __all__ = [
     "describe_methods",
     "families",
     "get_method",
+    "get_predictor",
     "register_family",
 ]
 
@@ -104,7 +104,8 @@ class Family:
         if callable(self.factory):
             return self.factory
         module, _, attr = self.factory.partition(":")
-        return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]
+        factory: Callable[..., Any] = getattr(importlib.import_module(module), attr)
+        return factory
 
 
 _FAMILIES: dict[str, Family] = {}
@@ -172,7 +173,10 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
         "Adams-Bashforth, s >= 1 (s > 6 warns: stability interval below 0.05)", 6, None,
     ),
     ("T", r"T", "sampledyn.methods._tustin:Tustin", "Tustin, implicit trapezoid", None, None),
-    ("RK<s>", r"RK(\d+)", "sampledyn.methods._runge_kutta:RungeKutta", "Runge-Kutta, s in [1, 2, 3, 4]", 4, 4),
+    (
+        "RK<s>", r"RK(\d+)", "sampledyn.methods._runge_kutta:RungeKutta",
+        "Runge-Kutta, s in [1, 2, 3, 4]", 4, 4,
+    ),
     (
         "ABu<s>", r"ABu(\d+)", "sampledyn.methods._held:HeldInputAdamsBashforth",
         "Adams-Bashforth with the input held over the predicted interval (f-history at "
@@ -183,7 +187,10 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
         "Adams-Bashforth with the input held and the f-history rebuilt after an input "
         "jump (order s across jumps), s >= 1", 6, None,
     ),
-    ("Ee", r"Ee", "sampledyn.estimate._estimated:estimated_euler", "estimated Euler (= ABe1)", None, None),
+    (
+        "Ee", r"Ee", "sampledyn.estimate._estimated:estimated_euler",
+        "estimated Euler (= ABe1)", None, None,
+    ),
     (
         "ABe<s>", r"ABe(\d+)", "sampledyn.estimate._estimated:EstimatedAdamsBashforth",
         "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1", 6, None,
@@ -225,7 +232,7 @@ def get_method(name: Any) -> Method:
         for anything that is neither a name nor a method object.
     """
     if not isinstance(name, str):
-        if hasattr(name, "predict") and hasattr(name, "name"):
+        if isinstance(name, Method):
             return name
         raise TypeError(f"`method` must be a name or a method object, got {type(name).__name__}.")
     key = name.strip()
@@ -235,6 +242,24 @@ def get_method(name: Any) -> Method:
             return fam.build(int(m.group(1))) if fam.ordered else fam.build()
     valid = ", ".join(f"{f.key} ({f.description})" for f in _FAMILIES.values())
     raise ValueError(f"unknown method {name!r}; valid names: {valid}.")
+
+
+def get_predictor(name: Any, argument: str = "method") -> Predictor:
+    """:func:`get_method`, for a rule that predicts on sampled data.
+
+    Raises
+    ------
+    ValueError
+        for a rule that is a discrete-time system only (ZOH), naming ``argument``.
+    """
+    m = get_method(name)
+    if not isinstance(m, Predictor):
+        raise ValueError(
+            f"`{argument}` {m.name!r} does not predict on sampled data (it is a discrete-time "
+            "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
+            "(`sampledyn methods` lists them)."
+        )
+    return m
 
 
 def available_methods() -> tuple[str, ...]:

@@ -314,7 +314,9 @@ class RungeKutta(FixedRule):
             terms = tuple((float(a), ("k", j)) for j, a in enumerate(tab.a[i][:i]) if a != 0)
             point: Any = Combination(("z", 0), terms) if terms else ("z", 0)
             stages.append(Stage(float(tab.c[i]), point))
-        update = Combination(("z", 0), tuple((float(b), ("k", i)) for i, b in enumerate(tab.b)), True)
+        update = Combination(
+            ("z", 0), tuple((float(b), ("k", i)) for i, b in enumerate(tab.b)), True
+        )
         return StepProgram(self.name, (("x", 0),), tuple(stages), update)
 
 

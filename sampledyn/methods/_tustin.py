@@ -332,4 +332,3 @@ def _chord(x, x0, f0, f1, lu, perm, h, active, tol, left, prev, done, slow):  # 
             not done[i] and theta**left * q > _KAPPA * tol * (1.0 - theta)
         )
         prev[r] = q
-

@@ -63,7 +63,9 @@ def _panel(
 ) -> None:
     single = [f for f, fr in families.items() if len({r["order"] for r in fr}) == 1]
     markers = dict(zip(single, "osD^v<>pPX*h", strict=False))
-    estimated = {f for f, fr in families.items() if isinstance(get_method(fr[0]["method"]), Estimator)}
+    estimated = {
+        f for f, fr in families.items() if isinstance(get_method(fr[0]["method"]), Estimator)
+    }
     curves = [f for f in families if f not in markers]
     # Solid curves carry the h_u/h labels; a second solid family gets another line style.
     solid = dict(zip([f for f in curves if f not in estimated], ("-", "-.", ":"), strict=False))

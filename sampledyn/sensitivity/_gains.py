@@ -63,7 +63,8 @@ def first_order_gain(method: Any) -> Fraction:
     ``a_s = sum |a_i|`` for AB_s; ``sum |b_i|`` (= 1 for the built-in tableaux) for
     RK_s; 1 for Tustin.
     """
-    return supported_method(method).first_order_gain  # type: ignore[no-any-return]
+    gain: Fraction = supported_method(method).first_order_gain
+    return gain
 
 
 def noise_gain(method: Any, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:

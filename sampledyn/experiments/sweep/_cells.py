@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-from ...methods import Predictor, get_method
+from ...methods import get_method, get_predictor
 from ...models import ClosedLoop
 from ._norms import NormSpec
 
@@ -215,11 +215,7 @@ class CellKind:
     def check_method(self, name: str) -> None:
         """Raise (ValueError, naming it) if ``name`` is no method of this kind (here:
         a rule that predicts on sampled data)."""
-        if not isinstance(get_method(name), Predictor):
-            raise ValueError(
-                f"method {name!r} predicts nothing on sampled data (a discrete-time system "
-                "only); give predictors (`sampledyn methods` lists them)."
-            )
+        get_predictor(name, "methods")
 
     def method_order(self, name: str) -> int | None:
         """The order stored with a cell of method ``name`` (None if it has none)."""

@@ -59,6 +59,7 @@ def smooth_history() -> int:
     rules = (get_method(name) for name in available_methods())
     return 1 + max(m.history for m in rules if isinstance(m, Predictor))
 
+
 _PARTS = ("disturbed", "noise")
 _COUNT_KINDS = {"exceeds": 2}  # kinds this module counts itself, with their arity
 
