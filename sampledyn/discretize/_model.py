@@ -605,7 +605,8 @@ def discretize(model: Any, method: Any, h: float, *, delay: bool = False) -> Dis
         A compiled continuous-time model (vehicle, symbolic, AUV-like, closed loop,
         function model).
     method : str or Method
-        A registered rule with a discrete state: "E", "AB<s>", "ABu<s>", "RK<s>", "T".
+        A rule that is a discrete-time system: "E", "AB<s>", "ABu<s>", "RK<s>", "T",
+        "ZOH" (the exact zero-order hold), or such a rule object.
     h : float
         Sampling period (s).
     delay : bool
