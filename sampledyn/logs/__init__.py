@@ -1,6 +1,8 @@
-"""Real vehicle logs: read and validate a CSV/Parquet log, a ROS bag or an ArduSub
-DataFlash log (time as logged, dropped records, units, frames, NaN, angle
-wrap-around) and measure the local errors of sampled-data models on it."""
+"""Real vehicle logs: read and validate a CSV/Parquet log, a ROS bag, an ArduSub
+DataFlash log, a MAVLink telemetry log (.tlog) or a BlueOS MCAP log (time as logged,
+dropped records, units, frames, NaN, angle wrap-around, the autopilot's own state)
+and measure the local errors of sampled-data models on it. The formats are one
+table, :data:`LOG_FORMATS`."""
 
 from __future__ import annotations
 
@@ -13,6 +15,11 @@ from typing import TYPE_CHECKING, Any
 _EXPORTS: dict[str, str] = {
     "CONVERSIONS": "._units",
     "GAP_POLICIES": "._time",
+    "LOG_FORMATS": "._formats",
+    "LogFormat": "._formats",
+    "detect_format": "._formats",
+    "model_for_mapping": "._mapping",
+    "t200_deadband": "._t200",
     "NAN_POLICIES": "._read",
     "T200_VOLTAGES": "._t200",
     "TIME_TOLERANCE": "._read",
@@ -36,6 +43,11 @@ __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
     from ._evaluate import MAX_H_RATE as MAX_H_RATE
+    from ._formats import LOG_FORMATS as LOG_FORMATS
+    from ._formats import LogFormat as LogFormat
+    from ._formats import detect_format as detect_format
+    from ._mapping import model_for_mapping as model_for_mapping
+    from ._t200 import t200_deadband as t200_deadband
     from ._evaluate import LogEvaluation as LogEvaluation
     from ._evaluate import evaluate_log as evaluate_log
     from ._open import read_log as read_log
