@@ -43,13 +43,12 @@ __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
     from ._evaluate import MAX_H_RATE as MAX_H_RATE
+    from ._evaluate import LogEvaluation as LogEvaluation
+    from ._evaluate import evaluate_log as evaluate_log
     from ._formats import LOG_FORMATS as LOG_FORMATS
     from ._formats import LogFormat as LogFormat
     from ._formats import detect_format as detect_format
     from ._mapping import model_for_mapping as model_for_mapping
-    from ._t200 import t200_deadband as t200_deadband
-    from ._evaluate import LogEvaluation as LogEvaluation
-    from ._evaluate import evaluate_log as evaluate_log
     from ._open import read_log as read_log
     from ._read import NAN_POLICIES as NAN_POLICIES
     from ._read import TIME_TOLERANCE as TIME_TOLERANCE
@@ -59,6 +58,7 @@ if TYPE_CHECKING:
     from ._synthetic import synthetic_log as synthetic_log
     from ._synthetic import write_synthetic_log as write_synthetic_log
     from ._t200 import T200_VOLTAGES as T200_VOLTAGES
+    from ._t200 import t200_deadband as t200_deadband
     from ._t200 import t200_rpm as t200_rpm
     from ._time import GAP_POLICIES as GAP_POLICIES
     from ._time import Clock as Clock

@@ -112,7 +112,9 @@ _ATTITUDE, _VEL_H, _VEL_V, _POS_REL, _POS_ABS, _POS_V = 1, 2, 4, 8, 16, 32
 _CONST_POS = 128
 
 
-def frame_of(params: Mapping[str, float], nu: int, src: str, declared: Any = None) -> tuple[int, str]:
+def frame_of(
+    params: Mapping[str, float], nu: int, src: str, declared: Any = None
+) -> tuple[int, str]:
     """The ArduSub frame (FRAME_CONFIG and its name) the log's parameters (or the
     mapping's ``frame``) name, checked against the vehicle's thruster count."""
     if declared is not None:

@@ -155,7 +155,11 @@ def _events(msgs: _Messages) -> tuple[Any, bool | None]:
         got += [(int(t), int(v[0] != 0)) for t, v in zip(*arm, strict=True)]
     ev = msgs.get("EV", required=False)
     if ev is not None:
-        got += [(int(t), _ARMED_EVENTS[int(v[0])]) for t, v in zip(*ev, strict=True) if int(v[0]) in _ARMED_EVENTS]
+        got += [
+            (int(t), _ARMED_EVENTS[int(v[0])])
+            for t, v in zip(*ev, strict=True)
+            if int(v[0]) in _ARMED_EVENTS
+        ]
     if not got:
         return None, None
     got.sort()

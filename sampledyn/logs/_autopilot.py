@@ -110,7 +110,8 @@ def _armed(s: AutopilotStreams, cfg: Mapping[str, Any]) -> list[str]:
         + f"{span} of the log ({stop - start} samples), is used"
     )
     if stop - start < n:
-        note += f"; {n - (stop - start)} samples left out (disarmed{', other stretches' if stretches > 1 else ''})"
+        why = "disarmed, other stretches" if stretches > 1 else "disarmed"
+        note += f"; {n - (stop - start)} samples left out ({why})"
     s.take(slice(start, stop))
     return [note]
 
@@ -127,14 +128,14 @@ def _estimator(s: AutopilotStreams, cfg: Mapping[str, Any]) -> tuple[list[str], 
     how = str(cfg.get("estimator", "check"))
     if how not in ("check", "ignore"):
         raise LogFormatError(
-            "mapping", f"mapping file: `estimator` must be \"check\" or \"ignore\", got {how!r}."
+            "mapping", f'mapping file: `estimator` must be "check" or "ignore", got {how!r}.'
         )
     if s.status is None or not s.status[0].size:
         return [], [f"estimator status: the log holds no {s.status_name}; not checked"]
     flags = _held(s.t_state, s.status, s.status[1][0]).astype(np.int64)
     left, notes = estimator_note(flags, s.status_name)
     if how == "ignore" and left:
-        return [], [*notes, "estimator = \"ignore\": those states are counted all the same"]
+        return [], [*notes, 'estimator = "ignore": those states are counted all the same']
     return left, notes
 
 
@@ -155,7 +156,9 @@ def _motors(
         return channels, signs, [f"outputs: channels {channels} as the mapping file gives them"]
     code, name = frame_of(s.params, model.nu, s.src, thr.get("frame"))
     channels = motor_channels(s.params, model.nu, s.src)
-    reverse = np.array([float(s.params.get(f"MOT_{k}_DIRECTION", 1.0)) for k in range(1, model.nu + 1)])
+    reverse = np.array(
+        [float(s.params.get(f"MOT_{k}_DIRECTION", 1.0)) for k in range(1, model.nu + 1)]
+    )
     geometric = motor_signs(model, FRAMES[code][1], s.src)
     signs = geometric * reverse if direction is None else direction
     where = "the mapping file" if "frame" in thr else "the log's parameters"
@@ -177,7 +180,11 @@ def _voltage(s: AutopilotStreams, voltage: Any) -> tuple[Any, str, list[str]]:
     if voltage != "logged":
         return voltage, " (the mapping file's supply)", []
     if s.battery is None or not s.battery[0].size:
-        return 16.0, "", [f"battery: no {s.battery_name or 'battery'} voltage in the log; T200 table at 16 V"]
+        return (
+            16.0,
+            "",
+            [f"battery: no {s.battery_name or 'battery'} voltage in the log; T200 table at 16 V"],
+        )
     volts = _held(s.t_state, s.battery, s.battery[1][0])
     return volts, f" (logged battery voltage, {s.battery_name})", []
 
@@ -207,7 +214,9 @@ def autopilot_log(
     if not isinstance(volts, float):
         volts = volts[have]
     rpm, how = thruster_rpm(held[have], unit, signs, volts, s.src, volts_from)
-    notes.append(f"inputs from {s.outputs_name} outputs {', '.join(str(c) for c in channels)}; {how[0]}")
+    notes.append(
+        f"inputs from {s.outputs_name} outputs {', '.join(str(c) for c in channels)}; {how[0]}"
+    )
     notes += how[1:]
     notes.append(f"sampling rule: {SAMPLING_RULE}")
     notes += drop_before_first_command(have, s.src)

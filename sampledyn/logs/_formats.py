@@ -145,10 +145,15 @@ LOG_FORMATS: tuple[LogFormat, ...] = (
         "ardusub",
     ),
     LogFormat(
-        "parquet", "table, one row per sample (.parquet)", _suffix(".parquet", ".pq"),
-        "._read:read_table_log", "parquet",
+        "parquet",
+        "table, one row per sample (.parquet)",
+        _suffix(".parquet", ".pq"),
+        "._read:read_table_log",
+        "parquet",
     ),  # fmt: skip
-    LogFormat("csv", "table, one row per sample (CSV)", lambda p: p.is_file(), "._read:read_table_log"),
+    LogFormat(
+        "csv", "table, one row per sample (CSV)", lambda p: p.is_file(), "._read:read_table_log"
+    ),
 )
 
 

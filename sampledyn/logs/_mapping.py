@@ -80,7 +80,7 @@ def table_mapping(
         if raw.get("inputs", "wrench") != "wrench":
             raise LogFormatError(
                 "mapping",
-                f"mapping file: `inputs` may only be \"wrench\" (the commanded body force and "
+                f'mapping file: `inputs` may only be "wrench" (the commanded body force and '
                 f"moment X, Y, Z, K, M, N), got {raw['inputs']!r}.",
             )
         cols = raw["columns"]

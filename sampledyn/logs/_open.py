@@ -76,4 +76,4 @@ def read_log(
         "irregular": irregular,
     }
     fmt = detect_format(path)
-    return fmt.read(path, model, mapping=mapping, **options)  # type: ignore[no-any-return]
+    return fmt.read(path, model, mapping=mapping, **options)

@@ -173,7 +173,7 @@ def thruster_options(
         raise LogFormatError(
             "mapping",
             f"mapping file: {where}: `voltage` must be the T200 supply in {lo}..{hi} V "
-            f"(interpolated between the measured {T200_VOLTAGES} V) or \"logged\" (the "
+            f'(interpolated between the measured {T200_VOLTAGES} V) or "logged" (the '
             f"log's battery voltage), got {voltage!r}.",
         )
     return unit, direction, voltage if voltage == "logged" else float(voltage)
@@ -230,7 +230,9 @@ def thruster_rpm(
             + (", and between its 2 V tables)" if _between_tables(volts) else ")")
         )
         if off.any():
-            notes.append(f"{int(off.sum())} thruster commands of 0 us (no pulse: off) taken as 0 rpm")
+            notes.append(
+                f"{int(off.sum())} thruster commands of 0 us (no pulse: off) taken as 0 rpm"
+            )
         dead = _deadband_note(values, volts)
         if dead:
             notes.append(dead)
@@ -273,6 +275,8 @@ def surface_warning(z: np.ndarray, src: str) -> list[str]:
             "buoyancy of a submerged vehicle); its errors do not measure the model"
         ]
     return []
+
+
 def vehicle_frame(
     model: Any,
     stamps: np.ndarray,
