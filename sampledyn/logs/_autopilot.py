@@ -195,9 +195,8 @@ def autopilot_log(
     """The validated log of ``model`` from an ArduSub log's streams (module docstring);
     ``cfg`` is the mapping's section, ``thr`` its thruster table; ``options`` as
     :func:`read_log`."""
-    voltage_default = "logged" if s.battery is not None else 16
     unit, direction, voltage = thruster_options(
-        {"voltage": voltage_default, **thr}, model.nu, "[thrusters]", THRUSTER_EXTRA, ()
+        {"voltage": "logged", **thr}, model.nu, "[thrusters]", THRUSTER_EXTRA, ()
     )
     notes = [f"{s.kind}", *s.notes]
     notes += _armed(s, cfg)

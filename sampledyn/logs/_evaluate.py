@@ -150,7 +150,9 @@ def _noise_gains(data: LogData, methods: Sequence[Any]) -> str:
         on_log = float(np.max(m.noise_gain(h_max, np.eye(2), ratio))) / h_max
         uniform = float(np.max(m.noise_gain(h_max, np.eye(2), 1.0))) / h_max
         parts.append(f"{m.name} {on_log:.3g} (uniform {uniform:.3g}, step ratio {ratio:.3g})")
-    return "  noise gain / (h L) on the logged steps, as the noise bounds take it: " + ", ".join(parts)
+    return "  noise gain / (h L) on the logged steps, as the noise bounds take it: " + ", ".join(
+        parts
+    )
 
 
 def _check_length(data: LogData, methods: Sequence[Any]) -> None:
@@ -382,7 +384,5 @@ def evaluate_log(
             rows.append(row)
     msgs = tuple(dict.fromkeys(str(w.message) for w in caught))
     if data.unmeasured:
-        notes += (
-            f"left out of the norms (not measured by the log): {', '.join(data.unmeasured)}",
-        )
+        notes += (f"left out of the norms (not measured by the log): {', '.join(data.unmeasured)}",)
     return LogEvaluation(rows, estimation, msgs, notes, tuple(data.unmeasured))

@@ -55,6 +55,7 @@ _WRAP = 2**32
 _ARMED_FLAG = 128  # MAV_MODE_FLAG_SAFETY_ARMED
 _INVALID_AUTOPILOT = (8, "MAV_AUTOPILOT_INVALID")
 _UNKNOWN_MV = 65535  # UINT16_MAX: voltage not known
+_EXTENSIONS = {f"servo{k}_raw" for k in range(9, 17)}
 
 Record = tuple[str, int, int, dict[str, Any]]
 
@@ -204,7 +205,8 @@ def _array(
 ) -> tuple[np.ndarray, np.ndarray]:
     if not rows:
         raise LogFormatError("mapping", f"{src}: the log holds no {kind} message of the autopilot.")
-    missing = [f for f in fields if f not in rows[0][1]]
+    # MAVLink 2 extension fields (servo9_raw.. of SERVO_OUTPUT_RAW) may be absent: 0
+    missing = [f for f in fields if f not in rows[0][1] and f not in _EXTENSIONS]
     if missing:
         raise LogFormatError(
             "mapping",
