@@ -22,8 +22,20 @@ from typing import Any
 
 import numpy as np
 
-_STRUCT = {"Q": "Q", "B": "B", "b": "b", "c": "h", "C": "H", "e": "i", "f": "f", "H": "H",
-           "I": "I", "n": "4s", "N": "16s", "Z": "64s"}  # fmt: skip
+_STRUCT = {
+    "Q": "Q",
+    "B": "B",
+    "b": "b",
+    "c": "h",
+    "C": "H",
+    "e": "i",
+    "f": "f",
+    "H": "H",
+    "I": "I",
+    "n": "4s",
+    "N": "16s",
+    "Z": "64s",
+}
 
 XKF1 = ("QBccCfffffffccce", "TimeUS,C,Roll,Pitch,Yaw,VN,VE,VD,dPD,PN,PE,PD,GX,GY,GZ,OH")
 NKF1_OLD = ("QccCfffffffccc", "TimeUS,Roll,Pitch,Yaw,VN,VE,VD,dPD,PN,PE,PD,GX,GY,GZ")
@@ -42,9 +54,12 @@ FORMATS_41 = {
     "MODE": ("QBB", "TimeUS,Mode,ModeNum"),
 }
 FORMATS_OLD = {
-    "PARM": FORMATS_41["PARM"], "NKF1": NKF1_OLD, "NKF4": ("QI", "TimeUS,SS"),
-    "IMU": IMU_OLD, "RCOU": RCOU,
-}  # fmt: skip
+    "PARM": FORMATS_41["PARM"],
+    "NKF1": NKF1_OLD,
+    "NKF4": ("QI", "TimeUS,SS"),
+    "IMU": IMU_OLD,
+    "RCOU": RCOU,
+}
 
 SS_NO_POSITION = 65703  # the bench log's XKF4.SS: attitude, velocities, vert. pos., const-pos mode
 SS_GOOD = 0b111111  # attitude, both velocities, relative and absolute horizontal, vertical
@@ -164,28 +179,106 @@ class TelemetryRun:
         """(t s since start, sysid, compid, type, fields), in send order."""
         out: list[tuple[float, int, int, str, dict[str, Any]]] = []
         for name, value in self.params.items():
-            out.append((0.0, 1, 1, "PARAM_VALUE", {"param_id": name, "param_value": value,
-                        "param_type": 9, "param_count": len(self.params), "param_index": 0}))  # fmt: skip
+            out.append(
+                (
+                    0.0,
+                    1,
+                    1,
+                    "PARAM_VALUE",
+                    {
+                        "param_id": name,
+                        "param_value": value,
+                        "param_type": 9,
+                        "param_count": len(self.params),
+                        "param_index": 0,
+                    },
+                )
+            )
         for k in range(int(self.SECONDS * 20)):
             t = k / 20
             ms = (self.boot_ms + 50 * k) % 2**32
-            out.append((t, 1, 1, "ATTITUDE", {"time_boot_ms": ms, "roll": 0.01 * np.sin(t),
-                        "pitch": 0.02, "yaw": 0.3 + 0.05 * t, "rollspeed": 0.01 * np.cos(t),
-                        "pitchspeed": 0.0, "yawspeed": 0.05}))  # fmt: skip
+            out.append(
+                (
+                    t,
+                    1,
+                    1,
+                    "ATTITUDE",
+                    {
+                        "time_boot_ms": ms,
+                        "roll": 0.01 * np.sin(t),
+                        "pitch": 0.02,
+                        "yaw": 0.3 + 0.05 * t,
+                        "rollspeed": 0.01 * np.cos(t),
+                        "pitchspeed": 0.0,
+                        "yawspeed": 0.05,
+                    },
+                )
+            )
             if k % 4 == 1:
-                out.append((t, 1, 1, "LOCAL_POSITION_NED", {"time_boot_ms": (ms + 3) % 2**32, "x": 0.1 * t,
-                            "y": 0.0, "z": 1.5, "vx": 0.1, "vy": 0.0, "vz": 0.0}))  # fmt: skip
+                out.append(
+                    (
+                        t,
+                        1,
+                        1,
+                        "LOCAL_POSITION_NED",
+                        {
+                            "time_boot_ms": (ms + 3) % 2**32,
+                            "x": 0.1 * t,
+                            "y": 0.0,
+                            "z": 1.5,
+                            "vx": 0.1,
+                            "vy": 0.0,
+                            "vz": 0.0,
+                        },
+                    )
+                )
             if k % 10 == 7:
                 us = ((ms + 2) * 1000) % 2**32
-                out.append((t, 1, 1, "SERVO_OUTPUT_RAW", {"time_usec": us, "port": 0,
-                            **{f"servo{j + 1}_raw": p for j, p in enumerate(self.pwm(t))}}))  # fmt: skip
+                out.append(
+                    (
+                        t,
+                        1,
+                        1,
+                        "SERVO_OUTPUT_RAW",
+                        {
+                            "time_usec": us,
+                            "port": 0,
+                            **{f"servo{j + 1}_raw": p for j, p in enumerate(self.pwm(t))},
+                        },
+                    )
+                )
             if k % 20 == 0:
                 armed = 2.0 <= t < 8.0
-                out.append((t, 1, 1, "HEARTBEAT", {"type": 12, "autopilot": 3,
-                            "base_mode": 81 | (128 if armed else 0), "custom_mode": 19,
-                            "system_status": 4}))  # fmt: skip
-                out.append((t, 255, 190, "HEARTBEAT", {"type": 6, "autopilot": 8,
-                            "base_mode": 192, "custom_mode": 0, "system_status": 4}))  # fmt: skip
+                out.append(
+                    (
+                        t,
+                        1,
+                        1,
+                        "HEARTBEAT",
+                        {
+                            "type": 12,
+                            "autopilot": 3,
+                            "base_mode": 81 | (128 if armed else 0),
+                            "custom_mode": 19,
+                            "system_status": 4,
+                        },
+                    )
+                )
+                out.append(
+                    (
+                        t,
+                        255,
+                        190,
+                        "HEARTBEAT",
+                        {
+                            "type": 6,
+                            "autopilot": 8,
+                            "base_mode": 192,
+                            "custom_mode": 0,
+                            "system_status": 4,
+                        },
+                    )
+                )
                 out.append((t, 1, 1, "SYS_STATUS", {"voltage_battery": 16000}))
                 out.append((t, 1, 1, "EKF_STATUS_REPORT", {"flags": 831}))
             if k % 5 == 0:
@@ -220,8 +313,10 @@ class TelemetryRun:
             w.start()
             ch = w.register_channel(topic="mavlink/out", message_encoding="json", schema_id=0)
             for seq, (t, sysid, compid, kind, f) in enumerate(self.messages()):
-                data = {"header": {"system_id": sysid, "component_id": compid, "sequence": seq % 256},
-                        "message": {"type": kind, **_serde(kind, f)}}  # fmt: skip
+                data = {
+                    "header": {"system_id": sysid, "component_id": compid, "sequence": seq % 256},
+                    "message": {"type": kind, **_serde(kind, f)},
+                }
                 ns = 1_700_000_000 * 10**9 + int(t * 1e9)
                 w.add_message(ch, log_time=ns, data=json.dumps(data).encode(), publish_time=ns)
             w.finish()
@@ -246,11 +341,18 @@ def _serde(kind: str, f: dict[str, Any]) -> dict[str, Any]:
     """The mavlink crate's JSON of a message's fields."""
     out = dict(f)
     if kind == "HEARTBEAT":
-        out = {"custom_mode": f["custom_mode"], "mavtype": {"type": "MAV_TYPE_SUBMARINE"},
-               "autopilot": {"type": "MAV_AUTOPILOT_ARDUPILOTMEGA" if f["autopilot"] == 3
-                             else "MAV_AUTOPILOT_INVALID"},
-               "base_mode": {"bits": f["base_mode"]}, "system_status": {"type": "MAV_STATE_ACTIVE"},
-               "mavlink_version": 3}  # fmt: skip
+        out = {
+            "custom_mode": f["custom_mode"],
+            "mavtype": {"type": "MAV_TYPE_SUBMARINE"},
+            "autopilot": {
+                "type": "MAV_AUTOPILOT_ARDUPILOTMEGA"
+                if f["autopilot"] == 3
+                else "MAV_AUTOPILOT_INVALID"
+            },
+            "base_mode": {"bits": f["base_mode"]},
+            "system_status": {"type": "MAV_STATE_ACTIVE"},
+            "mavlink_version": 3,
+        }
     elif kind == "EKF_STATUS_REPORT":
         out = {"flags": {"bits": f["flags"]}}
     elif kind == "PARAM_VALUE":

@@ -143,8 +143,8 @@ def _check_telemetry(data, run, boot_ms):
     )
     assert "frame: vectored_6dof (FRAME_CONFIG 2)" in notes
     assert (
-        "estimator status (EKF_STATUS_REPORT flags): attitude, velocity and horizontal position valid"
-        in notes
+        "estimator status (EKF_STATUS_REPORT flags): attitude, velocity and horizontal "
+        "position valid" in notes
     )
     assert "T200 table at 16 V (logged battery voltage, SYS_STATUS voltage)" in notes
     # inputs: the SERVO_OUTPUT_RAW before each state stamp, signed per motor
@@ -198,7 +198,16 @@ def test_a_disarmed_log_is_refused_naming_the_option(bluerov2, tmp_path):
     recs = [(n, v) for n, v in run.records() if n not in ("ARM", "EV")]
     t = int(run.T0 - 1)
     log = tmp_path / "off.BIN"
-    log.write_bytes(dataflash(FORMATS_41, [("ARM", (t, 1)), *[r for r in recs if r[0] == "PARM"],
-                                           ("ARM", (t + 1, 0)), *[r for r in recs if r[0] != "PARM"]]))  # fmt: skip
+    log.write_bytes(
+        dataflash(
+            FORMATS_41,
+            [
+                ("ARM", (t, 1)),
+                *[r for r in recs if r[0] == "PARM"],
+                ("ARM", (t + 1, 0)),
+                *[r for r in recs if r[0] != "PARM"],
+            ],
+        )
+    )
     with pytest.raises(LogFormatError, match=r"disarmed at every state sample.*armed_only = false"):
         read_log(log, bluerov2, mapping=DATAFLASH)
