@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log
+from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
 from ._streams import mapping_section, nearest
@@ -126,6 +126,10 @@ class _Messages:
         if not got:
             if not required:
                 return None
+            if kind in self.have:
+                raise LogFormatError(
+                    "data", f"{self.src}: the log defines {kind!r} but holds no record of it."
+                )
             close = difflib.get_close_matches(kind, self.have, n=1)
             raise LogFormatError(
                 "mapping",
@@ -175,6 +179,7 @@ def read_dataflash(path: Path, model: Any, *, mapping: Any = None, **options: An
     path = Path(path)
     src = path.name
     cfg, thr = mapping_section(model, mapping, "ardusub", _KEYS, src, "a DataFlash log")
+    check_thrusters(thr, model.nu)
     states = str(cfg.get("states", "XKF1"))
     rates = str(cfg.get("rates", "IMU"))
     outputs = str(cfg.get("outputs", "RCOU"))

@@ -43,7 +43,7 @@ from ._streams import (
 )
 from ._units import LogFormatError
 
-__all__ = ["AUTOPILOT_KEYS", "AutopilotStreams", "autopilot_log"]
+__all__ = ["AUTOPILOT_KEYS", "AutopilotStreams", "autopilot_log", "check_thrusters"]
 
 #: Keys of the thruster table of an ArduSub mapping (DataFlash or MAVLink).
 THRUSTER_EXTRA = ("channels", "frame")
@@ -187,6 +187,23 @@ def _voltage(s: AutopilotStreams, voltage: Any) -> tuple[Any, str, list[str]]:
         )
     volts = _held(s.t_state, s.battery, s.battery[1][0])
     return volts, f" (logged battery voltage, {s.battery_name})", []
+
+
+def check_thrusters(thr: Mapping[str, Any], nu: int) -> None:
+    """Check an ArduSub thruster table before the log is read (errors name the key)."""
+    thruster_options({"voltage": "logged", **thr}, nu, "[thrusters]", THRUSTER_EXTRA, ())
+    if "channels" in thr:
+        channels = thr["channels"]
+        if not (
+            isinstance(channels, list)
+            and len(channels) == nu
+            and all(isinstance(c, int) and 1 <= c <= 16 for c in channels)
+        ):
+            raise LogFormatError(
+                "mapping",
+                f"mapping file: [thrusters] channels must list {nu} output channels in 1..16, "
+                f"got {channels!r}.",
+            )
 
 
 def autopilot_log(

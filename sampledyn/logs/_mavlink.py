@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log
+from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
 from ._streams import mapping_section, nearest
@@ -317,6 +317,7 @@ def read_tlog(path: Path, model: Any, *, mapping: Any = None, **options: Any) ->
     file (module docstring); ``options`` as :func:`read_log`."""
     path = Path(path)
     cfg, thr = mapping_section(model, mapping, "mavlink", _KEYS, path.name, "a .tlog")
+    check_thrusters(thr, model.nu)
     s = _streams(
         _tlog_records(path, path.name), model, cfg, path.name, "MAVLink telemetry log (.tlog)"
     )
@@ -328,6 +329,7 @@ def read_blueos(path: Path, model: Any, *, mapping: Any = None, **options: Any) 
     through a mapping file (module docstring); ``options`` as :func:`read_log`."""
     path = Path(path)
     cfg, thr = mapping_section(model, mapping, "mavlink", _KEYS, path.name, "a BlueOS log")
+    check_thrusters(thr, model.nu)
     s = _streams(
         _blueos_records(path, path.name), model, cfg, path.name, "BlueOS MCAP log (mavlink/out)"
     )

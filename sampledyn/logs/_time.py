@@ -367,7 +367,8 @@ def sampling(
             f"{src}: t is not uniformly sampled: between {row(i)} and {row(i + 1)} t jumps "
             f"from {t[i]:.9g} s to {t[i + 1]:.9g} s (step {d[i]:.6g} s; h = {h0:.6g} s, the "
             f"median step), not within {tolerance:.2%} of a whole number of periods. Split "
-            "the log there, or raise `time_tolerance`.",
+            "the log there, raise `time_tolerance`, or accept irregular steps (`irregular`="
+            "True, --irregular: every rule predicts on the logged stamps).",
         )
     idx = np.concatenate([[0], np.cumsum(m)])
     h_grid = float(t[-1] / idx[-1])
