@@ -316,6 +316,19 @@ def _check_angles(
             )
 
 
+def _unwrap_angles(data: np.ndarray, model: Any) -> list[str]:
+    """Unwrap the angle columns of ``data`` in place (NaN rows skipped); notes."""
+    notes = []
+    for k, unit in enumerate(model.state_units):
+        if unit == "rad":
+            ok = np.isfinite(data[:, k])
+            w = np.unwrap(data[ok, k])
+            if not np.array_equal(w, data[ok, k]):
+                notes.append(f"{model.state_names[k]} unwrapped")
+                data[ok, k] = w
+    return notes
+
+
 def log_from_frame(
     frame: Any,
     model: Any,
@@ -401,13 +414,7 @@ def log_from_frame(
         more = f" and {len(unused) - 8} more" if len(unused) > 8 else ""
         out_notes.append(f"columns not used by the model: {', '.join(unused[:8])}{more}")
     if unwrap:  # before any filling, so that no interpolation spans a wrap-around
-        for k, unit in enumerate(model.state_units):
-            if unit == "rad":
-                ok = np.isfinite(data[:, k])
-                w = np.unwrap(data[ok, k])
-                if not np.array_equal(w, data[ok, k]):
-                    out_notes.append(f"{model.state_names[k]} unwrapped")
-                    data[ok, k] = w
+        out_notes += _unwrap_angles(data, model)
     if not np.isfinite(data).all():
         data = _fill(data, t)
     traj = Trajectory(
