@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ...models import ClosedLoop
+from ...signals import input_for
 from ._cells import (
     Cell,
     Chunk,
@@ -42,7 +43,7 @@ from ._cells import (
     get_cell_kind,
 )
 from ._config import SweepConfig
-from ._inputs import build_model, make_input
+from ._inputs import build_model
 from ._norms import parse_norm
 
 __all__ = [
@@ -283,7 +284,7 @@ def plan_study(config: SweepConfig) -> Study:
         built = []
         for spec in config.inputs:
             try:
-                built.append(make_input(spec, plant))
+                built.append(input_for(spec, plant))
             except (ValueError, TypeError) as exc:
                 raise ValueError(f"`input` {dict(spec)!r}: {exc}") from exc
         signals = tuple(built)
