@@ -43,8 +43,8 @@ def _input(text: str, model: Any) -> Any:
     """The signal of ``--input``: a registered input name or an inline TOML table."""
     import tomllib
 
-    from ..signals import input_for
     from ..models import ClosedLoop
+    from ..signals import input_for
 
     text = text.strip()
     if text.startswith("{"):

@@ -7,9 +7,9 @@ from ._fig6 import FIG6_TABLE as FIG6_TABLE
 from ._fig6 import fig6_thrusters as fig6_thrusters
 from ._fig6 import thruster_roles as thruster_roles
 from ._multilevel import Multilevel as Multilevel
+from ._multilevel import ZeroOrderHold as ZeroOrderHold
 from ._names import INPUTS as INPUTS
 from ._names import input_for as input_for
-from ._multilevel import ZeroOrderHold as ZeroOrderHold
 from ._sinusoid import Sinusoidal as Sinusoidal
 
 __all__ = [

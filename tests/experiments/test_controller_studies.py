@@ -102,7 +102,7 @@ def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
 def test_a_closed_loop_sweep_file_plans_the_studys_cells(tmp_path):
     """A sweep file of kind closed_loop is the study's grid: the same cell keys as
     ``reproduce closed-loop`` plans, so either fills the other's store."""
-    study = ClosedLoopStudy(vehicles=("rexrov",), h_values=(0.5,), T=20.0, transient=5.0, seeds=2)
+    study = ClosedLoopStudy(vehicle=("rexrov",), h=(0.5,), T=20.0, after=5.0, seeds=2)
     f = tmp_path / "cl.toml"
     f.write_text(
         'kind = "closed_loop"\nvehicle = "rexrov"\nbuoyancy_pct = 1.0\nT = 20.0\nafter = 5.0\n'
@@ -110,9 +110,9 @@ def test_a_closed_loop_sweep_file_plans_the_studys_cells(tmp_path):
         "noise = [[0, 0], [2, 2], [10, 10], [20, 20]]\nseeds = 2\nrtol = 1e-10\n"
         "setpoint = { depth = 5.0 }\n"
     )
-    from sampledyn.experiments._closed_loop import _config
+    from sampledyn.experiments import CLOSED_LOOP_STUDY
 
-    ours = plan_study(_config(study, "rexrov"))
+    (ours,) = map(plan_study, CLOSED_LOOP_STUDY.configs(study))
     theirs = plan_study(load_config(f))
     assert [c.key for c in theirs.iter_cells()] == [c.key for c in ours.iter_cells()]
     assert theirs.n_cells == 49 and "1 measures" in theirs.size_text()

@@ -8,6 +8,9 @@ study of the package runs on it: sweeps, Figs. 2, 3 and 7, the Monte Carlo of
 multistep), whose cells are of another kind (:class:`CellKind`: what is shared per
 trajectory and what one cell computes). See ``docs/sweeps.md``."""
 
+# The estimation layer registers its rules (Ee, ABe<s>) into the method registry; a
+# sweep may name them.
+from ... import estimate as _estimate  # noqa: F401
 from ._backends import DASK_WORKER_ENVIRON as DASK_WORKER_ENVIRON
 from ._backends import check_dask_workers as check_dask_workers
 from ._backends import local_cluster as local_cluster

@@ -253,6 +253,13 @@ class CellKind:
 
 
 _KINDS: dict[str, CellKind] = {}
+#: The built-in kinds of the studies above the engine, imported on first use (so the
+#: table is complete in a fresh process, whatever was imported).
+_BUILT_IN: dict[str, str] = {
+    "prediction": "sampledyn.experiments.sweep._prediction:PREDICTION",
+    "closed_loop": "sampledyn.experiments._closed_loop:CLOSED_LOOP",
+    "multistep": "sampledyn.experiments._multistep:MULTISTEP",
+}
 
 
 def register_cell_kind(kind: CellKind) -> None:
@@ -271,22 +278,31 @@ def register_cell_kind(kind: CellKind) -> None:
     _KINDS[kind.name] = kind
 
 
+def _names() -> list[str]:
+    return list(dict.fromkeys([*_BUILT_IN, *_KINDS]))
+
+
 def available_cell_kinds() -> dict[str, str]:
-    """Registered cell kinds: name -> description."""
-    return {name: kind.description for name, kind in _KINDS.items()}
+    """Registered cell kinds: name -> description (the built-in ones included)."""
+    return {name: get_cell_kind(name).description for name in _names()}
 
 
 def get_cell_kind(name: str) -> CellKind:
-    """The registered cell kind ``name``.
+    """The registered cell kind ``name`` (a built-in one is imported on first use).
 
     Raises
     ------
     ValueError
         naming the registered kinds, for an unknown name.
     """
+    if isinstance(name, str) and name not in _KINDS and name in _BUILT_IN:
+        import importlib
+
+        module, _, attribute = _BUILT_IN[name].partition(":")
+        register_cell_kind(getattr(importlib.import_module(module), attribute))
     kind = _KINDS.get(name) if isinstance(name, str) else None
     if kind is None:
-        raise ValueError(f"unknown cell kind {name!r}; registered: {', '.join(sorted(_KINDS))}.")
+        raise ValueError(f"unknown cell kind {name!r}; registered: {', '.join(sorted(_names()))}.")
     return kind
 
 

@@ -12,7 +12,7 @@ import warnings
 from typing import Any
 
 from ...simulate import simulate
-from ._cells import CellKind, Chunk, Setup, SimPlan, register_cell_kind
+from ._cells import CellKind, Chunk, Setup, SimPlan
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
 
 __all__ = ["PREDICTION", "PredictionCells"]
@@ -46,4 +46,3 @@ class PredictionCells(CellKind):
 
 #: The registered prediction kind (the default of every sweep file).
 PREDICTION = PredictionCells()
-register_cell_kind(PREDICTION)

@@ -645,6 +645,21 @@ class StudyResult:
     trajectories: dict[str, dict[str, Any]]
     summary: SweepSummary
 
+    def certificates(self) -> dict[float, float]:
+        """h -> certificate of the exact samples (NaN where there is none)."""
+        out: dict[float, float] = {}
+        for t in sorted(self.trajectories.values(), key=lambda r: r["h"]):
+            cert = t.get("certificate")
+            out[float(t["h"])] = math.nan if cert is None else float(cert)
+        return out
+
+    def summaries(self) -> dict[float, dict[str, Any]]:
+        """h -> the numbers stored with the exact samples (``summaries`` of the grid)."""
+        return {
+            float(t["h"]): dict(t.get("summary") or {})
+            for t in sorted(self.trajectories.values(), key=lambda r: r["h"])
+        }
+
 
 def run_study(
     config: SweepConfig | str | os.PathLike[str],
