@@ -409,6 +409,12 @@ class ClosedLoopCells(CellKind):
     needs_input = False
     subsample = False
     measure_label = "measures"
+    columns = (
+        *((n, float) for n in ("rho_design", "rho_true", "one_step_rms")),
+        *((n, float) for n in ("depth_p95", "depth_max", "heading_p95", "heading_max",
+                               "surge_p95", "surge_max", "effort_rms", "saturated")),
+        ("outcome", str),
+    )  # fmt: skip
 
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         delay = options.get("delay", False)
@@ -516,11 +522,9 @@ class ClosedLoopCells(CellKind):
                             error = f"{type(exc).__name__}: {exc}"[:400]
                 rows.append(
                     {
-                        "key": key, "status": "error" if error else "ok",
-                        "err_eta": math.nan, "err_v": math.nan, "err_all": math.nan,
+                        "key": key, "status": "error" if error else "ok", "values": values,
                         "seconds": time.perf_counter() - t0, "error": error,
                         "warnings": warning_text(caught), "worker": worker_name(),
-                        "result": values,
                     }
                 )  # fmt: skip
         return ChunkResult(chunk.traj_key, shared.meta, rows)
@@ -582,16 +586,15 @@ def study_order(study: Any) -> Callable[[dict[str, Any]], tuple[int, int, int, i
 def _rows(vehicle: str, study: ClosedLoopStudy, cells: list[dict[str, Any]]) -> list[dict]:
     """The engine's cells as the study's rows, in the study's order."""
     out = []
-    for c in sorted(cells, key=study_order(study)):
-        r = c["result"]
+    for r in sorted(cells, key=study_order(study)):
         row: dict[str, Any] = {
-            "vehicle": vehicle, "method": c["method"], "h": float(c["h"]),
-            "eta_pct": float(c["eta_pct"]), "v_pct": float(c["v_pct"]), "seed": int(c["seed"]),
-            "rho_design": r.get("rho_design", math.nan), "rho_true": r.get("rho_true", math.nan),
-            "one_step_rms": r.get("one_step_rms", math.nan),
+            "vehicle": vehicle, "method": r["method"], "h": float(r["h"]),
+            "eta_pct": float(r["eta_pct"]), "v_pct": float(r["v_pct"]), "seed": int(r["seed"]),
+            "rho_design": r["rho_design"], "rho_true": r["rho_true"],
+            "one_step_rms": r["one_step_rms"],
         }  # fmt: skip
-        if c["status"] != "ok":
-            row["status"] = f"error: {c.get('error') or 'failed'}"
+        if r["status"] != "ok":
+            row["status"] = f"error: {r.get('error') or 'failed'}"
         elif r["outcome"] == "ok":
             row |= {k: r[k] for k in _METRICS}
             row["status"] = "ok"

@@ -119,6 +119,8 @@ class MultistepCells(PredictionCells):
     option_keys = ("horizon",)
     subsample = False
     measure_label = "horizons"
+    measure_name = "horizon"
+    columns = (("err_eta", float), ("err_v", float), ("k", int), ("diverged", bool))
 
     def check_method(self, name: str) -> None:
         check_rule(name)
@@ -164,15 +166,15 @@ class MultistepCells(PredictionCells):
                 seconds = (time.perf_counter() - t0) / len(cells)
                 for key, measure in cells:
                     pos, vel = found.get(measure, (math.nan, math.nan))
-                    result = {} if error else {
-                        "k": _horizon(measure), "diverged": not max(pos, vel) < 1e3
+                    values = {"err_eta": pos, "err_v": vel} if error else {
+                        "err_eta": pos, "err_v": vel, "k": _horizon(measure),
+                        "diverged": not max(pos, vel) < 1e3,
                     }  # fmt: skip
                     rows.append(
                         {
                             "key": key, "status": "error" if error else "ok",
-                            "err_eta": pos, "err_v": vel, "err_all": math.nan,
-                            "seconds": seconds, "error": error, "warnings": msgs,
-                            "worker": worker, "result": result,
+                            "values": values, "seconds": seconds, "error": error,
+                            "warnings": msgs, "worker": worker,
                         }
                     )  # fmt: skip
         return ChunkResult(chunk.traj_key, shared.meta, rows)
@@ -212,11 +214,6 @@ def _config(study: MultistepStudy) -> SweepConfig:
     )
 
 
-def _stored(value: Any) -> float:
-    """A stored error (SQLite keeps NaN as NULL)."""
-    return math.nan if value is None else float(value)
-
-
 class MultistepDefinition(StudyDefinition):
     """The multi-step study: one engine run."""
 
@@ -232,15 +229,15 @@ class MultistepDefinition(StudyDefinition):
         order = study_order(settings)
         rows = []
         for c in result.cells:
-            k = _horizon(c["norm"])
+            k = _horizon(c["horizon"])
             rows.append(
                 (
                     (*order(c), k or settings.K + 1),  # the free run (k = 0) last
                     {
                         "method": c["method"], "h": float(c["h"]), "eta_pct": float(c["eta_pct"]),
                         "v_pct": float(c["v_pct"]), "seed": int(c["seed"]), "k": k,
-                        "pos_rms": _stored(c["err_eta"]), "vel_rms": _stored(c["err_v"]),
-                        "diverged": bool(c["result"].get("diverged", True)),
+                        "pos_rms": c["err_eta"], "vel_rms": c["err_v"],
+                        "diverged": c["diverged"] is not False,  # a failed cell: True
                     },
                 )
             )  # fmt: skip

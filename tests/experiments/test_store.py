@@ -96,7 +96,7 @@ def test_a_new_store_carries_the_mark_from_its_first_byte(tmp_path):
 
 def test_a_store_of_schema_1_is_recognised_and_upgraded(tmp_path):
     """Stores written before the mark (no application id, schema 1) stay usable."""
-    from sampledyn.experiments.sweep._store import _RUN_COLUMNS, _TRAJ_COLUMNS, CELL_COLUMNS
+    from sampledyn.experiments.sweep._store import _RUN_COLUMNS, _TRAJ_COLUMNS, CELL_COLUMNS_2
 
     def ddl(table, cols):
         return f"CREATE TABLE {table} (" + ", ".join(f'"{n}" {t}' for n, t in cols) + ")"
@@ -105,7 +105,7 @@ def test_a_store_of_schema_1_is_recognised_and_upgraded(tmp_path):
     with sqlite3.connect(db) as conn:
         conn.execute("CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT)")
         conn.execute("INSERT INTO meta VALUES ('schema_version', '1')")
-        conn.execute(ddl("cells", CELL_COLUMNS))
+        conn.execute(ddl("cells", CELL_COLUMNS_2[:-2]))  # schema 1: no kind, no result
         conn.execute(ddl("trajectories", _TRAJ_COLUMNS))
         conn.execute(ddl("runs", _RUN_COLUMNS[:13]))  # schema 1: no heartbeat, no counts
     cfg = write_sweep(tmp_path / "s.toml", h="[0.02]", seeds=1)

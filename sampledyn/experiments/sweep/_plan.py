@@ -186,7 +186,7 @@ class Study:
                                     "base_seed": cfg.base_seed,
                                     "distribution": cfg.distribution,
                                     "method": method,
-                                    "norm": norm,
+                                    "norm": norm,  # the measure (its key, kept)
                                 }
                                 text = _canonical(cconf)
                                 key = hashlib.sha256(text.encode()).hexdigest()
@@ -220,7 +220,7 @@ class Study:
             h = self.trajectories[traj_key]["h"]
             sim_key = self.trajectories[traj_key]["sim_key"]
             glist = [
-                Group(e, v, s, tuple((c.key, c.method, c.norm) for c in cs))
+                Group(e, v, s, tuple((c.key, c.method, c.measure) for c in cs))
                 for (e, v, s), cs in groups.items()
             ]
             for i in range(0, len(glist), groups_per_chunk):

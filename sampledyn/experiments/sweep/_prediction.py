@@ -24,6 +24,8 @@ class PredictionCells(CellKind):
     name = "prediction"
     description = "one-step predictions of each rule on noisy exact samples, by norm"
     measure_label = "norms"
+    measure_name = "norm"
+    columns = (("err_eta", float), ("err_v", float), ("err_all", float))
 
     def measures(self, config: Any) -> tuple[str, ...]:
         return tuple(config.norms)

@@ -39,7 +39,7 @@ from ._backends import (
 from ._compute import ChunkResult
 from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
 from ._plan import Cell, Chunk, PlannedGroup, Study, plan_study
-from ._store import Claim, ResultStore, inspect_store
+from ._store import CELL_COLUMNS, Claim, ResultStore, inspect_store
 
 __all__ = [
     "LEASE_SECONDS",
@@ -135,13 +135,18 @@ class _Tally:
 
 
 def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> dict[str, Any]:
+    """A generic stored cell: key, kind, the coordinates, the kind's values."""
     cfg = study.config
     tconf = study.trajectories[cell.traj_key]
-    named = result.get("result")
+    kind = study.setup.kind
+    values = result.get("values") or {}
+    bad = sorted(set(values) - {n for n, _t in kind.columns})
+    if bad:
+        raise ValueError(f"cell kind {kind.name!r} returned {bad[0]!r}, not one of its columns.")
     return {
-        **result,
-        "kind": study.setup.kind.name,
-        "result": None if named is None else json.dumps(named),  # (in the kind's order)
+        **{k: v for k, v in result.items() if k != "values"},
+        **{n: values.get(n) for n, _t in kind.columns},
+        "kind": kind.name,
         "run_id": run_id,
         "computed_at": time.time(),
         "version": study.version,
@@ -160,7 +165,7 @@ def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> 
         "seed": cell.seed,
         "base_seed": cfg.base_seed,
         "distribution": cfg.distribution,
-        "norm": cell.norm,
+        "measure": cell.measure,
         "traj_key": cell.traj_key,
         "config": cell.config,
     }
@@ -331,6 +336,9 @@ class MemoryStore:
 
     def start_run(self, *, backend: str, planned: int, skipped: int, config: Any) -> str:
         return "memory"
+
+    def ensure_kind(self, kind: Any) -> None:
+        return None
 
     def claim(self, run_id: str, keys: Any, *, retry_failed: bool, lease: float) -> Claim:
         todo = [k for k in keys if k not in self.cells]
@@ -526,6 +534,7 @@ def _run(
     lease: float,
 ) -> SweepSummary:
     t_start = time.perf_counter()
+    st.ensure_kind(study.setup.kind)
     run_id = st.start_run(
         backend=backend, planned=study.n_cells, skipped=0, config=study.config.as_dict()
     )
@@ -628,11 +637,13 @@ class StudyResult:
     study : Study
         The plan.
     cells : list of dict
-        One row per planned cell, in plan order: the configuration columns of a
-        store row (``h``, ``eta_pct``, ``v_pct``, ``seed``, ``method``, ``norm``,
-        ``traj_key``, ``kind``, ...) and the results ``err_eta``, ``err_v``,
-        ``err_all``, ``status``, ``error`` and ``result`` (a dict: the named results
-        of a cell kind other than prediction, else empty).
+        One row per planned cell, in plan order, as the kind's view of the store
+        shows it: the common columns (``h``, ``eta_pct``, ``v_pct``, ``seed``,
+        ``method``, ``traj_key``, ``kind``, ``status``, ``error``, ...), the measure
+        under the kind's name for it (``norm`` of a prediction, ``horizon`` of a
+        multistep study) and the kind's values, typed (:attr:`CellKind.columns`:
+        ``err_eta``, ``err_v``, ``err_all`` of a prediction; NaN for a float the
+        cell has not).
     trajectories : dict
         traj_key -> its row: ``certificate``, ``n_samples``, ``summary`` (a dict),
         ``h``, ``status``, ``error``.
@@ -706,13 +717,24 @@ def run_study(
             f"{len(keys) - len(cells)} of the study's {len(keys)} cells are not in the store "
             "(another run is computing them); run again when it has finished."
         )
-    cells = [{**c, "result": _decoded(c.get("result"))} for c in cells]
+    cells = [_view_row(study.setup.kind, c) for c in cells]
     traj_rows = {}
     for t in trajs:
         row = dict(t)
         row["summary"] = _decoded(row.get("summary"))
         traj_rows[row["traj_key"]] = row
     return StudyResult(study, cells, traj_rows, summary)
+
+
+def _view_row(kind: Any, row: dict[str, Any]) -> dict[str, Any]:
+    """A stored cell as its kind's view shows it: the common columns, the measure
+    under the kind's name for it (``norm``, ``horizon``), the kind's values typed."""
+    common = {k: v for k, v in row.items() if k in _COMMON}
+    common[kind.measure_name] = common.pop("measure")
+    return {**common, **kind.decode(row)}
+
+
+_COMMON = frozenset(name for name, _type in CELL_COLUMNS)
 
 
 def backend_options(
