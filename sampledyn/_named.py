@@ -52,7 +52,7 @@ class NamedEntry:
         if callable(self.factory):
             return self.factory
         module, _, attribute = self.factory.partition(":")
-        return getattr(importlib.import_module(module), attribute)  # type: ignore[no-any-return]
+        return getattr(importlib.import_module(module), attribute)
 
 
 class NamedTable:

@@ -24,7 +24,7 @@ _ENGINE_FLAGS = {"store": "--store", "workers": "--workers", "scheduler": "--sch
 def _studies() -> dict[str, Any]:
     from ..experiments import STUDIES
 
-    return STUDIES  # type: ignore[no-any-return]
+    return STUDIES
 
 
 def _options() -> dict[str, list[tuple[str, Any]]]:

@@ -207,7 +207,7 @@ def _config(study: MultistepStudy) -> SweepConfig:
         after=study.after,
         h=tuple(study.h),
         methods=tuple(study.methods),
-        noise=tuple(tuple(p) for p in study.noise_pairs),
+        noise=tuple((float(e), float(v)) for e, v in study.noise_pairs),
         seeds=range(study.seeds) if isinstance(study.seeds, int) else study.seeds,
         base_seed=study.seed,
         options={"horizon": study.K},

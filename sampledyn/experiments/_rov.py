@@ -158,7 +158,7 @@ class ROVStudy:
         if vehicle is not None and base_dir is not None and not Path(vehicle).is_absolute():
             vehicle = str(Path(base_dir) / vehicle) if is_model_file(vehicle) else vehicle
         base = load_config(FIG7_STUDY_FILE, vehicle=vehicle)
-        given = {
+        given: dict[str, Any] = {
             "T": self.T, "after": self.after, "h": self.h, "noise": self.noise_pairs,
             "methods": self.methods, "seeds": None if self.seeds is None else range(self.seeds),
             "base_seed": self.seed, "buoyancy_pct": self.buoyancy_pct,
@@ -186,6 +186,7 @@ class ROVStudy:
         if held:
             return replace(config, feedback={**config.feedback, **gains})
         return config.with_feedback(_HOLD, **gains)
+
 
 def _columns(norm: str, norms: tuple[str, ...]) -> list[tuple[str, str]]:
     """(column, block) pairs a cell of ``norm`` fills (the norm read by the engine's

@@ -271,11 +271,11 @@ class StudyEntry:
         """The study's definition (imported now)."""
         if "definition" not in self._cache:
             self._cache["definition"] = _load(self.definition)
-        return self._cache["definition"]  # type: ignore[no-any-return]
+        return self._cache["definition"]
 
     def report_function(self) -> Callable[..., Any]:
         """Its report function (imported now)."""
-        return _load(self.report)  # type: ignore[no-any-return]
+        return _load(self.report)
 
 
 STUDIES: dict[str, StudyEntry] = {}
@@ -364,9 +364,18 @@ register_study(
         "the ROV study of section 6 (Fig. 6 input, the 12 noise pairs, Monte Carlo over "
         "--seeds) on the RexROV open loop as in the paper (--vehicle to choose), next to "
         "the paper's numbers",
-        _takes("h+", "T", "after", "seeds", "seed", "vehicle", "methods+",
-               Take(SHARED["norm"], choices=("l2_over_n", "rms")), Take(_HOLD),
-               Take(_GAINS, many=True)),  # fmt: skip
+        _takes(
+            "h+",
+            "T",
+            "after",
+            "seeds",
+            "seed",
+            "vehicle",
+            "methods+",
+            Take(SHARED["norm"], choices=("l2_over_n", "rms")),
+            Take(_HOLD),
+            Take(_GAINS, many=True),
+        ),  # fmt: skip
         "sampledyn.experiments._rov:FIG7",
         "sampledyn.report._fig7:fig7_report",
         workers=2,

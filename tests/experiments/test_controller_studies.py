@@ -68,7 +68,11 @@ def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     kill_when_stored(proc, db, 14)
     with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
-        finished = dict(conn.execute("SELECT key, json_array(outcome, depth_p95, effort_rms) FROM cells").fetchall())
+        finished = dict(
+            conn.execute(
+                "SELECT key, json_array(outcome, depth_p95, effort_rms) FROM cells"
+            ).fetchall()
+        )
     assert 14 <= len(finished) < 98, "the kill landed before or after the run"
     assert main([*args, "--out", str(tmp_path / "b")]) == 0
     printed = capsys.readouterr().out
@@ -77,7 +81,11 @@ def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
     assert all(int(p) == int(c) + int(f) == 49 for p, c, f in runs)
     assert sum(int(f) for _p, _c, f in runs) == len(finished)
     with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
-        after = dict(conn.execute("SELECT key, json_array(outcome, depth_p95, effort_rms) FROM cells").fetchall())
+        after = dict(
+            conn.execute(
+                "SELECT key, json_array(outcome, depth_p95, effort_rms) FROM cells"
+            ).fetchall()
+        )
         status = [r[0] for r in conn.execute("SELECT status FROM runs ORDER BY started_at")]
     assert len(after) == 98 and {k: after[k] for k in finished} == finished
     # The killed run's record stays "running" (or "abandoned" once another run took

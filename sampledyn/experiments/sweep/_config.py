@@ -753,7 +753,7 @@ def _file_noise(data: Mapping[str, Any], src: str) -> Sequence[Any]:
             raise SweepConfigError(
                 "noise", f"give either `noise` pairs or `eta_pct`/`v_pct`{_where(src)}, not both."
             )
-        return data["noise"]  # type: ignore[no-any-return]
+        return data["noise"]
     # Distinct lists (checked) give distinct pairs; the product is never listed.
     eta, v = (data.get(k, [0.0]) for k in ("eta_pct", "v_pct"))
     return NoiseGrid(tuple(eta if isinstance(eta, list) else [eta]),

@@ -25,7 +25,9 @@ class PredictionCells(CellKind):
     description = "one-step predictions of each rule on noisy exact samples, by norm"
     measure_label = "norms"
     measure_name = "norm"
-    columns = (("err_eta", float), ("err_v", float), ("err_all", float))
+    columns: tuple[tuple[str, type], ...] = (
+        ("err_eta", float), ("err_v", float), ("err_all", float)
+    )  # fmt: skip
 
     def measures(self, config: Any) -> tuple[str, ...]:
         return tuple(config.norms)

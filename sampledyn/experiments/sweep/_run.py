@@ -433,35 +433,18 @@ def run_sweep(
         passed on after the run is marked "interrupted" (finished cells kept, local
         workers terminated, claims released).
     """
-    if workers is not None and scheduler is not None:
-        raise ValueError("give `workers` or `scheduler`, not both.")
-    if workers is not None and (isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"`workers` must be >= 1, got {workers}.")
-    if groups_per_chunk is not None and groups_per_chunk < 1:
-        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
-    if not lease > 0:
-        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
+    backend, n_workers = _backend(workers, scheduler, groups_per_chunk, lease)
     t_start = time.perf_counter()
     if isinstance(config, Study):
         study = config
     else:
         study = plan_study(config if isinstance(config, SweepConfig) else load_config(config))
     check_grid_size(study, max_cells)
-    if scheduler is not None:
-        backend, n_workers = f"dask:{scheduler}", 1
-    elif workers is not None:
-        backend, n_workers = f"processes:{workers}", workers
-    else:
-        backend, n_workers = "in-process", 1
     if store is None:
         store = MemoryStore()
     opened = isinstance(store, ResultStore | MemoryStore)
     if dry_run:
-        if isinstance(store, MemoryStore):
-            found = 0
-        else:
-            path = store.path if isinstance(store, ResultStore) else Path(store)
-            found = _count_stored(study, path, retry_failed)
+        found = _found(study, store, retry_failed)
         return SweepSummary(
             "", study.n_cells, found, 0, 0, backend, time.perf_counter() - t_start,
             0.0, 0.0, 0.0, status="dry-run",
@@ -505,6 +488,33 @@ def run_sweep(
         summary.compute_seconds, summary.simulate_seconds, summary.elsewhere,
         summary.duplicates, summary.status,
     )  # fmt: skip
+
+
+def _backend(
+    workers: int | None, scheduler: str | None, groups_per_chunk: int | None, lease: float
+) -> tuple[str, int]:
+    """The backend's name and worker count, the run's arguments checked."""
+    if workers is not None and scheduler is not None:
+        raise ValueError("give `workers` or `scheduler`, not both.")
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
+        raise ValueError(f"`workers` must be >= 1, got {workers}.")
+    if groups_per_chunk is not None and groups_per_chunk < 1:
+        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
+    if not lease > 0:
+        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
+    if scheduler is not None:
+        return f"dask:{scheduler}", 1
+    if workers is not None:
+        return f"processes:{workers}", workers
+    return "in-process", 1
+
+
+def _found(study: Study, store: Any, retry_failed: bool) -> int:
+    """Cells of ``study`` already in ``store`` (a dry run: read-only)."""
+    if isinstance(store, MemoryStore):
+        return 0
+    path = store.path if isinstance(store, ResultStore) else Path(store)
+    return _count_stored(study, path, retry_failed)
 
 
 def _inspect_before_work(path: Path) -> None:
@@ -590,23 +600,28 @@ def _run(
         if pool is not None:
             # Interrupted or failed: stop the workers now, not after their tasks.
             stop_pool(pool, terminate=outcome != "complete")
-        try:
-            if outcome == "nothing to do":
-                st.forget_run(run_id)  # a run that did nothing leaves no record
-            else:
-                st.finish_run(
-                    run_id, outcome, tally.computed, tally.failed, skipped=tally.skipped,
-                    elsewhere=tally.elsewhere, duplicates=tally.duplicates,
-                )  # fmt: skip
-        except OSError:
-            if outcome == "complete":
-                raise
-            # The run's own error (e.g. a full disk) is the one to report.
+        _record(st, run_id, outcome, tally)
     return SweepSummary(
         run_id, study.n_cells, tally.skipped, tally.computed, tally.failed, backend,
         time.perf_counter() - t_start, tally.store_s, tally.compute_s, tally.sim_s,
         tally.elsewhere, tally.duplicates, outcome,
     )  # fmt: skip
+
+
+def _record(st: Any, run_id: str, outcome: str, tally: _Tally) -> None:
+    """Mark the run with its outcome and counts (a run that did nothing: no record)."""
+    try:
+        if outcome == "nothing to do":
+            st.forget_run(run_id)
+        else:
+            st.finish_run(
+                run_id, outcome, tally.computed, tally.failed, skipped=tally.skipped,
+                elsewhere=tally.elsewhere, duplicates=tally.duplicates,
+            )  # fmt: skip
+    except OSError:
+        if outcome == "complete":
+            raise
+        # The run's own error (e.g. a full disk) is the one to report.
 
 
 def _n(client: Any) -> int:
