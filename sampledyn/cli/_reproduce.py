@@ -171,21 +171,31 @@ def _shown(value: Any) -> str:
 
 def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     """Add ``reproduce`` to the subparsers ``sub``, from the study registry."""
+    import textwrap
+
     studies = _studies()
-    listing = " ".join(f"{name}: {entry.summary}." for name, entry in studies.items())
+    listing = "\n".join(
+        textwrap.fill(f"{name}: {entry.summary}.", 88, initial_indent="  ",
+                      subsequent_indent="    ")
+        for name, entry in studies.items()
+    )  # fmt: skip
+    intro = (
+        "Regenerate the results of the paper 'On the Adequacy of Adams-Bashforth "
+        "Sampled-Data Models for Characterizing Complex Underwater-Vehicle Dynamics with "
+        "Noisy Measurements' (equation numbers refer to it), and the controller studies."
+    )
+    engine = (
+        "Every study runs on the experiment engine: --store keeps the cells in a results "
+        "store, so a killed run resumes and `sampledyn results`/`report` read it; --workers "
+        "and --scheduler choose where the cells are computed. Writes CSV and PNG into --out "
+        "and prints the table. Options a study does not take are refused."
+    )
     rep = sub.add_parser(
         "reproduce",
         parents=parents,
         help=f"regenerate a figure or table of the paper or a study ({', '.join(studies)})",
-        description=(
-            "Regenerate the results of the paper 'On the Adequacy of Adams-Bashforth "
-            "Sampled-Data Models for Characterizing Complex Underwater-Vehicle Dynamics "
-            f"with Noisy Measurements' (equation numbers refer to it). {listing} "
-            "Every study runs on the experiment engine: --store keeps the cells in a "
-            "results store, so a killed run resumes and `sampledyn results`/`report` read it; "
-            "--workers and --scheduler choose where the cells are computed. Writes CSV and "
-            "PNG into --out and prints the table. Options a study does not take are refused."
-        ),
+        description=f"{textwrap.fill(intro, 88)}\n\nstudies:\n{listing}\n\n"
+        f"{textwrap.fill(engine, 88)}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     rep.__class__ = _ReproduceParser
