@@ -82,8 +82,8 @@ def test_cell_values_match_the_library_pipeline(tmp_path):
     traj = sd.simulate(model, signal, T=cfg.T, h=0.02, x0=cfg.x0)
     measured = sd.add_noise(traj, 2.0, 5.0, np.random.SeedSequence([0, cell.seed]))
     err = sd.local_errors(sd.predict("RK4", model, measured, signal), measured)
-    assert row["err_eta"] == sd.error_norm(err, measured.t, "rms", cfg.after, [0])
-    assert row["err_v"] == sd.error_norm(err, measured.t, "rms", cfg.after, [1])
+    assert row["values"]["err_eta"] == sd.error_norm(err, measured.t, "rms", cfg.after, [0])
+    assert row["values"]["err_v"] == sd.error_norm(err, measured.t, "rms", cfg.after, [1])
 
 
 def test_rerun_computes_nothing_and_a_bigger_grid_only_the_new_cells(tmp_path):
