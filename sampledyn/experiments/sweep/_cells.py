@@ -227,7 +227,7 @@ class CellKind:
     def check_method(self, name: str) -> None:
         """Raise (ValueError, naming it) if ``name`` is no method of this kind (here:
         a rule that predicts on sampled data)."""
-        get_predictor(name, "methods")
+        get_predictor(name, None)  # the grid's check names `methods`
 
     def method_order(self, name: str) -> int | None:
         """The order stored with a cell of method ``name`` (None if it has none)."""
