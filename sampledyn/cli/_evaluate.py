@@ -3,11 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 from typing import Any
 
-from ._common import add_format, names, option, print_json, refuse, registry, writable_file
+from ._common import (
+    add_format,
+    names,
+    option,
+    print_json,
+    refuse,
+    refuse_overwriting_inputs,
+    registry,
+    writable_file,
+)
 
 __all__ = ["add_parser"]
 
@@ -65,6 +73,15 @@ def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[
     }
 
 
+def _inputs(args: argparse.Namespace) -> dict[str, Any]:
+    """The files ``evaluate`` reads (a built-in vehicle name is none)."""
+    from ..models import is_model_file
+
+    vehicle = args.vehicle if is_model_file(args.vehicle) else None
+    mapping = args.mapping if isinstance(args.mapping, str) else None
+    return {"--data": args.data, "--vehicle": vehicle, "--mapping": mapping}
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     methods = names(args.methods)
     estimate = names(args.estimate)
@@ -83,6 +100,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             "--after 2 counts the errors on t >= 2 s."
         )
     out = writable_file(args.out, "--out") if args.out else None
+    if out is not None:
+        refuse_overwriting_inputs(out, "--out", _inputs(args))
 
     from ..experiments.sweep import build_model
     from ..logs import evaluate_log, model_for_mapping, read_log
@@ -105,10 +124,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         )
     result = evaluate_log(model, data, [*methods, *estimate], norm=args.norm, after=args.after)
     if out is not None:
-        with out.open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(result.rows[0]))
-            writer.writeheader()
-            writer.writerows(result.rows)
+        from ..report import write_csv
+
+        write_csv(result.rows, out)
     if args.format == "json":
         print_json(_json(args, model, data, result))
         return 0

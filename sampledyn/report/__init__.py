@@ -16,12 +16,16 @@ from ._sensitivity_figs import plot_noise_growth as plot_noise_growth
 from ._sensitivity_figs import plot_pitch as plot_pitch
 from ._sensitivity_figs import plot_tightness as plot_tightness
 from ._sensitivity_figs import sensitivity_report as sensitivity_report
+from ._sweep_report import MANIFEST as MANIFEST
+from ._sweep_report import REPORT_FILES as REPORT_FILES
 from ._sweep_report import ReportFiles as ReportFiles
 from ._sweep_report import write_report as write_report
 from ._tables import format_grid as format_grid
 from ._tables import write_csv as write_csv
 
 __all__ = [
+    "MANIFEST",
+    "REPORT_FILES",
     "ReportFiles",
     "closed_loop_table",
     "fig7_table",

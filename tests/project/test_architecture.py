@@ -35,6 +35,8 @@ LAYERS: dict[str, int] = {
     "sampledyn._sums": 0,
     "sampledyn._version": 0,
     "sampledyn._named": 0,
+    "sampledyn._files": 0,
+    "sampledyn._limits": 0,
     "sampledyn.models": 1,
     "sampledyn.signals": 1,
     "sampledyn.methods": 2,
