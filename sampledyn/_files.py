@@ -256,7 +256,7 @@ def csv_safe(value: Any) -> Any:
 def csv_safe_frame(df: Any) -> Any:
     """A pandas DataFrame with :func:`csv_safe` applied to its text columns (a copy
     if anything changes)."""
-    text = [c for c in df.columns if df[c].dtype == object]
+    text = [c for c in df.columns if df[c].dtype.kind == "O"]  # object or string dtype
     if not text:
         return df
     df = df.copy()
