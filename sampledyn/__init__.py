@@ -40,6 +40,8 @@ _EXPORTS: dict[str, str | None] = {
     "logs": None,
     "get_method": ".methods",
     "local_errors": ".errors",
+    "memory_limit": "._limits",
+    "WorkLimitError": "._limits",
     "methods": None,
     "models": None,
     "predict": ".predict",
@@ -61,6 +63,8 @@ if TYPE_CHECKING:
     from . import results as results
     from . import sensitivity as sensitivity
     from . import signals as signals
+    from ._limits import WorkLimitError as WorkLimitError
+    from ._limits import memory_limit as memory_limit
     from ._trajectory import Certificate as Certificate
     from ._trajectory import NumericalError as NumericalError
     from ._trajectory import Trajectory as Trajectory

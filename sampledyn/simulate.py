@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit, types
 
 from . import _dop853 as _dop
+from ._limits import check_memory, check_step, trajectory_bytes
 from ._trajectory import Certificate, NumericalError, Trajectory
 from .models import RHS_TYPE, RO1, RO2, readonly
 from .models import index_switch as _index_switch
@@ -452,6 +453,10 @@ class _InputLimits:
         )
 
 
+# More samples than any machine holds (8 PB of times alone).
+_MAX_SAMPLES = 1e15
+
+
 def _check_period(h: Any, T: Any) -> int:
     for name, v in (("h", h), ("T", T)):
         if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
@@ -460,8 +465,11 @@ def _check_period(h: Any, T: Any) -> int:
             raise ValueError(f"`{name}` must be finite, got {v}.")
     if h <= 0:
         raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
+    check_step(h)
     if T < h:
         raise ValueError(f"duration `T` = {T} s must be at least one sampling period h = {h} s.")
+    if T / h > _MAX_SAMPLES:  # beyond any memory; round() would also overflow
+        check_memory(math.inf, f"T / h = {T:g} / {h:g} = {T / h:.3g} samples", "the run")
     n = round(T / h)
     if abs(n * h - T) > 1e-9 * T:
         raise ValueError(f"`T` = {T} s must be an integer multiple of `h` = {h} s.")
@@ -546,6 +554,11 @@ def simulate(
         raise ValueError("`x0` holds NaN or inf.")
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
+    check_memory(
+        trajectory_bytes(n_int + 1, model.nx, model.nu, certify=certify),
+        f"T / h = {T:g} s / {h:g} s = {n_int + 1:.4g} samples",
+        "the exact samples",
+    )
 
     # t_n = n h (the same values as h * arange, without the integer temporary)
     t = np.arange(n_int + 1, dtype=float)

@@ -81,6 +81,13 @@ def common_options() -> argparse.ArgumentParser:
         help="no progress bars and no start-up line on stderr (errors and warnings still)",
     )
     p.add_argument(
+        "--max-memory",
+        metavar="SIZE",
+        default=argparse.SUPPRESS,
+        help="largest memory one computation may plan, e.g. 16G (default 4G, or "
+        "$SAMPLEDYN_MAX_MEMORY); larger plans are refused before they start",
+    )
+    p.add_argument(
         "--debug",
         action="store_true",
         default=argparse.SUPPRESS,

@@ -21,6 +21,7 @@ from ._status import (
     EXIT_PIPE,
     EXIT_TERMINATED,
     Terminated,
+    UsageError,
     classify,
     status_table,
 )
@@ -129,6 +130,21 @@ def _is_terminal(stream: Any) -> bool:
         return False
 
 
+@contextmanager
+def _memory(args: argparse.Namespace) -> Iterator[None]:
+    """``--max-memory`` for this command and its worker processes."""
+    from .._limits import memory_limit, parse_bytes
+
+    size = getattr(args, "max_memory", None)
+    if size is not None:
+        try:
+            parse_bytes(size, "--max-memory")
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+    with memory_limit(size):
+        yield
+
+
 def _fail(status: int, text: str, debug: bool) -> NoReturn:
     if debug:
         traceback.print_exc()
@@ -152,7 +168,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         sys.stderr.flush()
     try:
-        with _sigterm_as_interrupt(), _one_line_warnings():
+        with _sigterm_as_interrupt(), _one_line_warnings(), _memory(args):
             result = args.func(args)
             sys.stdout.flush()  # a closed pipe shows here, not at exit
     except BrokenPipeError:

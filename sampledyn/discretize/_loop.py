@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
+from .._limits import check_memory
 from .._trajectory import Trajectory
 from ..models import RHS_TYPE, RO1, RO2, readonly
 from ..noise import add_noise
@@ -332,8 +333,13 @@ def run_loop(
     from ..simulate import _check_period  # the simulator's own check of (h, T)
 
     n_int = _check_period(h, T)
-    t = np.arange(n_int + 1, dtype=float) * float(h)
     nx, nu = int(plant.nx), int(plant.nu)
+    check_memory(  # states, measurements, commands, inputs, noise, references
+        8.0 * (n_int + 1) * (3 + 5 * nx + 4 * nu),
+        f"T / h = {T:g} s / {h:g} s = {n_int + 1:.4g} samples",
+        "the closed-loop run",
+    )
+    t = np.arange(n_int + 1, dtype=float) * float(h)
     x0 = plant.default_x0 if x0 is None else x0
     x0 = np.asarray(x0, dtype=float)
     if x0.shape != (nx,) or not np.isfinite(x0).all():

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from .._limits import MAX_SEED, MAX_SEEDS, check_step
 from .._trajectory import Trajectory
 from ..models import ClosedLoop, Vehicle
 from ..noise import noise_amplitudes
@@ -315,10 +316,16 @@ def _checked_arguments(
         raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
     if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
         raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
+    check_step(h)
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= MAX_SEEDS:
+        raise ValueError(
+            f"`seeds` must be an int in 1..{MAX_SEEDS} (10,000 seeds give the mean error to "
+            f"1 % of its spread), got {seeds!r}."
+        )
     if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
         raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
+    if base_seed > MAX_SEED:
+        raise ValueError(f"`base_seed` (--seed) must be an int <= 2^63 - 1, got {base_seed:.4g}.")
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")

@@ -32,6 +32,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
+from .._limits import check_ab_order
 from .._trajectory import Trajectory
 from ._base import (
     FixedRule,
@@ -72,6 +73,7 @@ def _check_order(s: Any) -> int:
         raise TypeError(f"order `s` must be an int, got {type(s).__name__}.")
     if s < 1:
         raise ValueError(f"order `s` must be >= 1, got {s}.")
+    check_ab_order(int(s), "Adams-Bashforth AB")  # the coefficients' cost and stability
     return int(s)
 
 

@@ -206,7 +206,7 @@ def test_csv_exports_neutralise_formulas_in_text_cells_only(db, capsys):
         conn.execute("UPDATE cells SET err_eta = -1.5")
     assert main(["results", str(db), "--format", "csv"]) == 0
     table = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
-    assert table and all(r["vehicle"] == "'=HYPERLINK(\"http://x\")" for r in table)
+    assert table and all(r["vehicle"] == '\'=HYPERLINK("http://x")' for r in table)
     assert all(r["error"] == "'@SUM(A1)" for r in table)
     assert all(float(r["err_eta"]) == -1.5 for r in table)  # numbers stay numbers
 

@@ -90,9 +90,7 @@ EMPTYING_TRIGGER = ("CREATE TRIGGER wipe AFTER INSERT ON cells BEGIN DELETE FROM
     ],
 )
 @pytest.mark.parametrize("command", ["results", "sweep", "report"])
-def test_code_in_a_store_is_refused_naming_the_object(
-    store, tmp_path, capsys, sql, named, command
-):
+def test_code_in_a_store_is_refused_naming_the_object(store, tmp_path, capsys, sql, named, command):
     db = _copy(store, tmp_path, *sql)
     before = _state(db)
     time.sleep(0.01)

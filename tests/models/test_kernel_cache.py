@@ -214,4 +214,3 @@ def test_the_cli_refuses_an_open_cache_in_one_line_exit_4(tmp_path):
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in done.stderr
     assert "may be written by others" in lines[0] and "SAMPLEDYN_CACHE_DIR" in lines[0]
-

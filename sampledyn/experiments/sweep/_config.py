@@ -59,6 +59,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..._limits import MAX_SEED, MIN_STEP
 from ...methods import families
 from ...models import FEEDBACK_LAWS, MODELS, is_model_file, model_names
 from ...signals import INPUTS
@@ -388,6 +389,12 @@ def check_time_grid(
         )
     hs = _number_list("h", h, src, positive=True)
     for period in hs:
+        if period < MIN_STEP:
+            raise SweepConfigError(
+                "h",
+                f"`h` = {period:g} s{_where(src)} is below the smallest sampling period "
+                f"{MIN_STEP:g} s (sample times t = n h lose their meaning below it).",
+            )
         ratio = T / period
         if abs(ratio - round(ratio)) > 1e-9 * ratio:
             near = _nearby_divisor(T, period)
@@ -543,17 +550,25 @@ def _noise_pairs(noise: Any, src: str) -> Sequence[tuple[float, float]]:
 
 
 def _seed_list(seeds: Any, src: str) -> Sequence[int]:
-    if isinstance(seeds, range) and seeds.step == 1 and seeds.start >= 0 and len(seeds) > 0:
-        return seeds
-    ok = isinstance(seeds, Sequence) and len(seeds) > 0
-    ok = ok and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
-    if not ok or len(set(seeds)) != len(seeds):
+    if isinstance(seeds, range) and seeds.step == 1 and 0 <= seeds.start < seeds.stop:
+        top = seeds.stop - 1  # (a count of seeds is bounded by max_cells)
+    else:
+        ok = isinstance(seeds, Sequence) and len(seeds) > 0
+        ok = ok and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
+        if not ok or len(set(seeds)) != len(seeds):
+            raise SweepConfigError(
+                "seeds",
+                f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got "
+                f"{list(seeds) if isinstance(seeds, range) else seeds!r}.",
+            )
+        top = max(seeds)
+    if top > MAX_SEED:
         raise SweepConfigError(
             "seeds",
-            f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got "
-            f"{list(seeds) if isinstance(seeds, range) else seeds!r}.",
+            f"`seeds`{_where(src)}: seed {top:.4g} is beyond {MAX_SEED} (2^63 - 1, what the "
+            "store keeps); give smaller seeds.",
         )
-    return tuple(seeds)
+    return seeds if isinstance(seeds, range) else tuple(seeds)
 
 
 def _norm_texts(norms: Any, kind: CellKind, src: str) -> tuple[str, ...]:
@@ -575,10 +590,14 @@ def _norm_texts(norms: Any, kind: CellKind, src: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(out))
 
 
-def _count(key: str, value: Any, src: str, *, least: int) -> int:
+def _count(key: str, value: Any, src: str, *, least: int, most: int = MAX_SEED) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < least:
         raise SweepConfigError(
             key, f"`{key}`{_where(src)} must be an int >= {least}, got {value!r}."
+        )
+    if value > most:
+        raise SweepConfigError(
+            key, f"`{key}`{_where(src)} must be an int <= {most}, got {value:.4g}."
         )
     return int(value)
 

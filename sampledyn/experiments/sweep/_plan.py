@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..._limits import check_memory, samples_of, trajectory_bytes
 from ...models import ClosedLoop
 from ...signals import input_for
 from ._cells import (
@@ -305,6 +306,20 @@ def _reference(config: SweepConfig, signals: tuple[Any, ...]) -> Any:
     return reference.clean if reference.clean is not None else reference
 
 
+def _check_memory(config: SweepConfig, model: Any, p: float) -> None:
+    """Refuse, before anything runs, a simulation at period ``p`` whose exact samples
+    and the arrays of one group of cells (measured copy, f values, predictions,
+    errors) would not fit the memory limit (:func:`sampledyn._limits.check_memory`)."""
+    n = samples_of(config.T, p)
+    nx, nu = int(model.nx), int(model.nu)
+    estimate = trajectory_bytes(n, nx, nu) + 8.0 * n * nx * 6
+    check_memory(
+        estimate,
+        f"`h` = {p:g} s with `T` = {config.T:g} s ({n:.4g} samples per trajectory)",
+        "the exact samples and one group of cells",
+    )
+
+
 def plan_study(config: SweepConfig) -> Study:
     """Build the model and inputs, check them against the grid, and key the
     trajectories; the cells are listed lazily (:meth:`Study.iter_groups`).
@@ -313,6 +328,8 @@ def plan_study(config: SweepConfig) -> Study:
     ------
     ValueError
         if the vehicle or an input cannot be built (the message names them).
+    WorkLimitError
+        (a ValueError) if one simulation's arrays would exceed the memory limit.
     """
     from ..._version import __version__
 
@@ -362,6 +379,8 @@ def plan_study(config: SweepConfig) -> Study:
                 trajectories[traj_key] = {**t, "sim_key": sim_key}
                 keyed.append((traj_key, h, k))
             sims[sim_key] = SimPlan(sim_key, i, p, tuple(keyed))
+    for p, _members in periods:
+        _check_memory(config, model, p)
     setup = Setup(
         model,
         signals,

@@ -256,9 +256,10 @@ def _translated(path: Path) -> Iterator[None]:
 _EXPECTED = ("meta", *("cells", "trajectories", "runs"), "claims")
 # The exact form of a view the store creates (see ResultStore._view_sql): quoted
 # column names of ``cells``, the measure under the kind's name, one kind.
+_VIEW_COLUMN = r'"[A-Za-z0-9_]+"(?: AS "[A-Za-z0-9_]+")?'
 _VIEW_SQL = re.compile(
     r'CREATE VIEW "cells_(?P<kind>[A-Za-z0-9_]+)" AS SELECT '
-    r'(?P<cols>"[A-Za-z0-9_]+"(?: AS "[A-Za-z0-9_]+")?(?:, "[A-Za-z0-9_]+"(?: AS "[A-Za-z0-9_]+")?)*)'
+    rf"(?P<cols>{_VIEW_COLUMN}(?:, {_VIEW_COLUMN})*)"
     r" FROM cells WHERE kind = '(?P=kind)'"
 )
 
@@ -296,9 +297,11 @@ def _check_objects(conn: sqlite3.Connection, path: Path) -> None:
     """Refuse (:class:`NotAStoreError`, file untouched) a store whose schema holds
     anything but data (see :func:`_schema_problem`)."""
     rows = conn.execute("SELECT type, name, tbl_name, sql FROM sqlite_master").fetchall()
-    columns = {r[1] for r in conn.execute("PRAGMA table_info(cells)")} if any(
-        r[0] == "table" and r[1] == "cells" for r in rows
-    ) else set()
+    columns = (
+        {r[1] for r in conn.execute("PRAGMA table_info(cells)")}
+        if any(r[0] == "table" and r[1] == "cells" for r in rows)
+        else set()
+    )
     problem = _schema_problem(rows, columns)
     if problem is not None:
         raise NotAStoreError(
