@@ -307,7 +307,7 @@ def _reference(config: SweepConfig, signals: tuple[Any, ...]) -> Any:
 
 
 def _check_memory(config: SweepConfig, model: Any, p: float) -> None:
-    """Refuse, before anything runs, a simulation at period ``p`` whose exact samples
+    """Refuse, before anything runs, a trajectory at period ``p`` whose exact samples
     and the arrays of one group of cells (measured copy, f values, predictions,
     errors) would not fit the memory limit (:func:`sampledyn._limits.check_memory`)."""
     n = samples_of(config.T, p)
@@ -339,6 +339,8 @@ def plan_study(config: SweepConfig) -> Study:
         raise ValueError(
             f"`x0` needs {model.nx} numbers for {config.vehicle!r}, got {len(config.x0)}."
         )
+    for h in config.h:  # before anything allocates by T / h (the inputs' levels too)
+        _check_memory(config, model, h)
     signals = _signals(config, model)
     reference = _reference(config, signals)
     mfp = model_fingerprint(model)
@@ -379,8 +381,6 @@ def plan_study(config: SweepConfig) -> Study:
                 trajectories[traj_key] = {**t, "sim_key": sim_key}
                 keyed.append((traj_key, h, k))
             sims[sim_key] = SimPlan(sim_key, i, p, tuple(keyed))
-    for p, _members in periods:
-        _check_memory(config, model, p)
     setup = Setup(
         model,
         signals,
