@@ -51,7 +51,7 @@ def test_a_multistep_horizon_is_bounded(tmp_path):
     path = tmp_path / "m.toml"
     path.write_text(
         'kind = "multistep"\nvehicle = "auv_like"\ninput = { name = "multilevel", hold = 0.1 }\n'
-        "T = 2.0\nafter = 0.5\nh = [0.1]\nmethods = [\"E\"]\nhorizon = 1000000000\n"
+        'T = 2.0\nafter = 0.5\nh = [0.1]\nmethods = ["E"]\nhorizon = 1000000000\n'
     )
     with pytest.raises(SweepConfigError, match=r"`horizon` = 1e\+09 is above 1000"):
         load_config(path)
@@ -110,8 +110,16 @@ def test_a_bad_scheduler_or_timeout_is_one_line_naming_it(tmp_path, capsys, extr
 def test_a_tcp_scheduler_off_this_machine_is_warned_about(tmp_path, capsys):
     pytest.importorskip("distributed")
     cfg = write_sweep(tmp_path / "s.toml", **SMALL)
-    args = ["sweep", str(cfg), "--store", str(tmp_path / "s.db"), "--scheduler",
-            "tcp://192.0.2.1:8786", "--connect-timeout", "0.5"]  # fmt: skip (TEST-NET-1)
+    args = [
+        "sweep",
+        str(cfg),
+        "--store",
+        str(tmp_path / "s.db"),
+        "--scheduler",
+        "tcp://192.0.2.1:8786",
+        "--connect-timeout",
+        "0.5",
+    ]  # fmt: skip (TEST-NET-1)
     with pytest.warns(UserWarning) as caught, pytest.raises(SystemExit) as exc:
         main(args)
     assert exc.value.code == EXIT_UNAVAILABLE
