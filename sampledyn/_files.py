@@ -17,6 +17,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import stat
 import threading
 import tomllib
@@ -189,7 +190,18 @@ def parse_toml(text: str, where: str) -> dict[str, Any]:
         raise FileContentError(f"{where}: not valid TOML: {exc}") from None
     except RecursionError:
         raise _too_deep(where) from None
+    except ValueError as exc:  # int() of a number too long to be one (4300 digits)
+        raise _too_long(where, exc) from None
     return check_nesting(data, where)
+
+
+def _too_long(where: str, exc: Exception) -> FileContentError:
+    digits = re.search(r"value has (\d+) digits", str(exc))
+    said = f" ({digits[1]} digits)" if digits else ""
+    return FileContentError(
+        f"{where}: holds an integer too long to read{said}; no sampledyn value has more than "
+        "a few dozen digits"
+    )
 
 
 def parse_json(text: str | bytes, where: str) -> Any:
@@ -198,8 +210,10 @@ def parse_json(text: str | bytes, where: str) -> Any:
         data = json.loads(text)
     except RecursionError:
         raise _too_deep(where) from None
-    except ValueError as exc:
+    except json.JSONDecodeError as exc:
         raise FileContentError(f"{where}: not valid JSON: {exc}") from None
+    except ValueError as exc:
+        raise _too_long(where, exc) from None
     return check_nesting(data, where)
 
 

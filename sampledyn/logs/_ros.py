@@ -63,6 +63,7 @@ from typing import Any
 
 import numpy as np
 
+from .._files import read_text, regular_file
 from ._ardupilot import FRAMES, RC_AXES, manual_mixer, motor_signs
 from ._frames import BODY_FRAMES, WORLD_FRAMES, quaternion_matrix, to_ned_frd, twist_frame_fit
 from ._mapping import check_keys
@@ -190,6 +191,18 @@ def _config(model: Any, mapping: Any, src: str) -> _Config:
     )
 
 
+def _regular_bag(path: Path) -> None:
+    """A bag's files must be regular files (a FIFO or /dev/zero as metadata.yaml would
+    block or fill the memory in the YAML reader); metadata.yaml is bounded in size."""
+    if path.is_dir():
+        regular_file(path / "metadata.yaml", "bag metadata")
+        for part in path.iterdir():
+            if part.suffix.lower() in (".db3", ".mcap"):
+                regular_file(part, "bag file", limit=None)
+    else:
+        regular_file(path, "bag file", limit=None)
+
+
 def _open(path: Path) -> tuple[Any, str]:
     try:
         from rosbags.highlevel import AnyReader
@@ -212,6 +225,7 @@ def _open(path: Path) -> tuple[Any, str]:
                 f".mcap file, it holds {len(files)}; name the file.",
             )
         path = files[0]
+    _regular_bag(path)
     ros1 = path.suffix.lower() == ".bag"
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     return AnyReader([path], default_typestore=store), ("ROS 1" if ros1 else "ROS 2")
@@ -234,7 +248,7 @@ def _register_types(reader: Any, extra: Mapping[str, Any], src: str) -> None:
             raise LogFormatError(
                 "mapping", f"mapping file: [ros.types] {name!r}: no .msg file {str(msg)!r}."
             )
-        add.update(get_types_from_msg(msg.read_text(), str(name)))
+        add.update(get_types_from_msg(read_text(msg, "message definition"), str(name)))
     reader.typestore.register({k: v for k, v in add.items() if k not in have})
 
 

@@ -24,7 +24,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from .._files import write_text_atomic
+from .._files import parse_json, read_text, write_text_atomic
 from ._sweep_figs import ab_orders, noise_label, plot_order, plot_ratio_maps
 
 __all__ = ["MANIFEST", "REPORT_FILES", "ReportFiles", "write_report"]
@@ -503,8 +503,9 @@ def _manifest(out: Path) -> set[str]:
     only; a damaged manifest lists nothing, so nothing is removed)."""
     path = out / MANIFEST
     try:
-        listed = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
-    except (OSError, ValueError, RecursionError):
+        text = read_text(path, "report manifest", limit=1 << 20) if path.is_file() else "{}"
+        listed = parse_json(text, str(path))
+    except (OSError, ValueError):
         return set()
     names = listed.get("figures", []) if isinstance(listed, dict) else []
     return {

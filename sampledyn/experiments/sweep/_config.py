@@ -53,12 +53,12 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..._files import FileContentError, parse_toml, read_text
 from ..._limits import MAX_SEED, MIN_STEP
 from ...methods import families
 from ...models import FEEDBACK_LAWS, MODELS, is_model_file, model_names
@@ -327,12 +327,12 @@ def load_config(path: str | os.PathLike[str], *, vehicle: str | None = None) -> 
         if ``path`` does not exist.
     """
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"sweep file {str(path)!r} does not exist.")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepConfigError("<file>", f"{path}: not valid TOML: {exc}") from exc
+    try:  # a regular file, bounded, UTF-8, TOML nested a few levels
+        data = parse_toml(read_text(path, "sweep file"), str(path))
+    except FileContentError as exc:
+        raise SweepConfigError("<file>", str(exc)) from None
     if vehicle is not None:
         data["vehicle"] = str(Path(vehicle).resolve()) if is_model_file(vehicle) else vehicle
     return _parse(data, path.resolve().parent, str(path))

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..._files import parse_json
 from ..._limits import worker_count
 from ._backends import (
     check_dask_workers,
@@ -793,4 +794,8 @@ def backend_options(
 
 def _decoded(text: Any) -> dict[str, Any]:
     """A JSON column (``summary``, ``result``) as a dict (empty if NULL)."""
-    return json.loads(text) if isinstance(text, str) and text else {}
+    return (
+        dict(parse_json(text, "a results store's JSON column"))
+        if isinstance(text, str) and text
+        else {}
+    )

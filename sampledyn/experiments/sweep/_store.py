@@ -79,6 +79,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..._files import parse_json, regular_file
+
 __all__ = [
     "APPLICATION_ID",
     "CELL_COLUMNS",
@@ -333,6 +335,7 @@ def inspect_store(path: Path) -> str:
         )
     if not path.exists():
         return "missing"
+    regular_file(path, "results store", limit=None)  # a FIFO would block, /dev/zero fill
     with path.open("rb") as fh:
         head = fh.read(100)
     if not head:
@@ -637,7 +640,8 @@ class ResultStore:
             ).fetchall()
             for key, kind_name, text in rows:
                 declared = {n for n, _t in _kind_of(kind_name, self.path).columns}
-                named = {k: v for k, v in json.loads(text).items() if k in declared}
+                found = parse_json(text, f"results store {str(self.path)!r}: cell {key}")
+                named = {k: v for k, v in dict(found).items() if k in declared}
                 if named:
                     sets = ", ".join(f'"{k}" = ?' for k in named)
                     conn.execute(f"UPDATE cells SET {sets} WHERE key = ?", (*named.values(), key))
@@ -990,7 +994,7 @@ def _generic_row(row: dict[str, Any]) -> dict[str, Any]:
     out["kind"] = row.get("kind") or "prediction"
     text = row.get("result")
     if isinstance(text, str) and text:
-        out.update(json.loads(text))
+        out.update(parse_json(text, "a schema-2 store's result column"))
     return out
 
 
@@ -1062,7 +1066,8 @@ def _generic_frame(df: Any) -> Any:
         df["kind"] = "prediction"
     if "result" not in df.columns:
         return df
-    parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in df["result"]]
+    parsed = [parse_json(t, "a schema-2 store's result column") if isinstance(t, str) and t else {}
+              for t in df["result"]]  # fmt: skip
     df = df.drop(columns="result")
     names = [n for n in dict.fromkeys(k for r in parsed for k in r) if n not in df.columns]
     if names:
