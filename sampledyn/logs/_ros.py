@@ -118,14 +118,18 @@ class _Config:
 
 
 def _field(msg: Any, path: str, topic: str) -> Any:
+    """The field ``path`` ("twist.linear.x") of a message: message fields only (the
+    dataclass fields rosbags declares), never other Python attributes (a mapping that
+    names ``__class__.__mro__`` is refused like any unknown field)."""
     obj = msg
     for part in path.split("."):
-        if not hasattr(obj, part):
-            have = [f for f in getattr(type(obj), "__dataclass_fields__", {}) if f != "__msgtype__"]
+        fields = getattr(type(obj), "__dataclass_fields__", {})
+        if part not in fields or part.startswith("__"):
+            have = [f for f in fields if not f.startswith("__")]
             raise LogFormatError(
                 "mapping",
                 f"mapping file: messages on {topic!r} ({getattr(msg, '__msgtype__', '?')}) have no "
-                f"field {path!r}: {part!r} is not among {', '.join(have)}.",
+                f"field {path!r}: {part!r} is not among {', '.join(have) or 'no fields'}.",
             )
         obj = getattr(obj, part)
     return obj

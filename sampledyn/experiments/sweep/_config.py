@@ -61,6 +61,7 @@ from typing import Any
 from ..._files import FileContentError, parse_toml, read_text
 from ..._limits import MAX_SEED, MIN_STEP
 from ...methods import families
+from ...noise import MAX_NOISE_PCT
 from ...models import FEEDBACK_LAWS, MODELS, is_model_file, model_names
 from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
@@ -527,6 +528,12 @@ def _percent(key: str, value: Any, src: str) -> float:
     out = _number(key, value, src)
     if out < 0:
         raise SweepConfigError(key, f"`{key}`{_where(src)} must be percentages >= 0, got {value}.")
+    if out > MAX_NOISE_PCT:
+        raise SweepConfigError(
+            key,
+            f"`{key}`{_where(src)}: {out:g} % is above {MAX_NOISE_PCT:g} % (noise ten times the "
+            "motion: the errors would measure the noise alone).",
+        )
     return out
 
 
