@@ -127,9 +127,12 @@ def classify(exc: BaseException) -> tuple[int, str]:
     if isinstance(exc, UsageError):
         status, text = EXIT_USAGE, str(exc)
     elif _broken_pool(exc):
-        status, text = EXIT_UNAVAILABLE, (
-            "a worker process died (killed by a signal, or out of memory) while computing "
-            "cells; the finished cells are kept: rerun the same command to compute the rest"
+        status, text = (
+            EXIT_UNAVAILABLE,
+            (
+                "a worker process died (killed by a signal, or out of memory) while computing "
+                "cells; the finished cells are kept: rerun the same command to compute the rest"
+            ),
         )
     elif isinstance(exc, OSError) and exc.errno == errno.EBADF and exc.filename is None:
         status, text = EXIT_FILE, "standard output is closed: the output has nowhere to go"

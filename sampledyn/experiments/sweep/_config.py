@@ -61,8 +61,8 @@ from typing import Any
 from ..._files import FileContentError, parse_toml, read_text
 from ..._limits import MAX_SEED, MIN_STEP
 from ...methods import families
-from ...noise import MAX_NOISE_PCT
 from ...models import FEEDBACK_LAWS, MODELS, is_model_file, model_names
+from ...noise import MAX_NOISE_PCT
 from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
