@@ -208,7 +208,16 @@ def refuse_overwriting_inputs(
     """
     targets = [(out / w.rstrip("/"), w.endswith("/")) for w in writes] if writes else [(out, False)]
     for label, value in inputs.items():
-        if value is None or not os.path.lexists(str(value)):
+        if value is None:
+            continue
+        if not os.path.lexists(str(value)):
+            # (a store's side file comes and goes with its connections: its name is kept)
+            if "STORE's" in label and any(Path(value).resolve() == t.resolve()
+                                          for t, _ in targets):  # fmt: skip
+                refuse(
+                    f"`{name} {out}` is the name of the {label} {str(value)!r}; nothing was "
+                    f"written: give {name} another {'folder' if writes else 'file'}."
+                )
             continue
         source = Path(value)
         for target, many in targets:
