@@ -430,12 +430,12 @@ def test_fig7_of_another_vehicle_does_not_overwrite_the_default_output():
     assert _fig7_out("/home/me/my_rov.toml") == "out/fig7_my_rov"
 
 
-def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(capsys):
+def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(tmp_path, capsys):
     """The h_max search runs RK4 at periods up to 2 s, where a stage leaves the data's
     pitch range (the RexROV's Fig. 6 run stays within 22 deg; stages reached 85 deg and
     the vehicle warned as if the data had): no pitch warning, the domain says the truth."""
     assert main(["advise", "--vehicle", "rexrov", "--input", "fig6", "--h", "0.1",
-                 "--methods", "RK4", "--no-validate"]) == 0  # fmt: skip
+                 "--methods", "RK4", "--no-validate", "--out", str(tmp_path)]) == 0  # fmt: skip
     out, err = capsys.readouterr()
     assert "pitch |theta|" not in err
     theta = float(re.search(r"\|theta\|<=([0-9.]+) deg", out).group(1))

@@ -24,8 +24,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 # ---------------------------------------------------------- the AUV-like system
 # The hand-written kernels that the symbolic AUVLike replaced (eqs. (9)-(10)); kept
-# here as the independent reference.
-@njit(RHS_SIG, cache=True)
+# here as the independent reference. Not cached: numba would write the cache next to
+# this file, into the repository (tests write below tmp_path only).
+@njit(RHS_SIG)
 def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
@@ -35,7 +36,7 @@ def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     out[1] = alpha * vel * vel + beta * vel + gamma * vel * abs(vel) + delta * s2 + u[0]
 
 
-@njit(JAC_SIG, cache=True)
+@njit(JAC_SIG)
 def _auv_jac(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
