@@ -116,3 +116,20 @@ def frame():
     import pandas as pd
 
     return pd.read_csv(EXAMPLE_LOG)
+
+
+@pytest.fixture(scope="session")
+def rexrov_data():
+    """(vehicle, signal, noisy run): the Fig. 7 RexROV (+1 % buoyancy) under the Fig. 6
+    input, 60 s at h = 0.1 s, noise (2 %, 10 %) seed 4 (do not modify)."""
+    import warnings
+
+    import sampledyn as sd
+    from sampledyn.experiments import fig7_vehicle
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the file's added-mass symmetry note
+        veh = fig7_vehicle(sd.models.load_vehicle("rexrov"), 1.0)
+    sig = sd.signals.fig6_thrusters(veh)
+    exact = sd.simulate(veh, sig, T=60.0, h=0.1, certify=False)
+    return veh, sig, sd.add_noise(exact, 2, 10, seed=4)

@@ -12,7 +12,24 @@ from sampledyn.discretize import LinearLaw, casadi_rhs, discretize, run_loop
 from sampledyn.models import AttitudeHold, AUVLike, SymbolicModel, load_vehicle
 from sampledyn.signals import fig6_thrusters
 
-RULES = ("E", "AB2", "AB4", "ABu4", "RK4", "T")
+
+def _is_discrete_time_system(name: str) -> bool:
+    """What the rule object says: a rule that fits no parameters on its data and keeps
+    a state layout (``state_layout`` raises NotImplementedError for one that has none,
+    e.g. ABj_s) is a system z+ = F(z, u)."""
+    rule = sd.get_method(name)
+    if rule.estimates_params or getattr(type(rule), "state_layout", None) is None:
+        return False
+    try:
+        rule.state_layout  # noqa: B018  (the property raises for a rule without one)
+    except NotImplementedError:
+        return False
+    return True
+
+
+# Every registered rule that is a discrete-time system: a new rule enrols itself.
+RULES = tuple(n for n in sd.available_methods() if _is_discrete_time_system(n))
+OTHERS = tuple(n for n in sd.available_methods() if n not in RULES)
 
 
 @pytest.fixture(scope="module")
@@ -92,6 +109,20 @@ def test_layouts_and_sizes(rexrov):
         assert d.layout == (("x", 0),) and d.nz == 12
     assert discretize(rexrov, "AB4", 0.1).nz == 48
     assert discretize(rexrov, "AB4", 0.1, delay=True).nz == 48 + 8
+
+
+def test_every_kind_of_rule_is_enrolled():
+    """The families the docs name as discrete-time systems are among the enrolled rules
+    (the enrolment asks the objects; this guards against it enrolling nothing)."""
+    families = {sd.get_method(n).family for n in RULES}
+    assert {"AB", "ABu", "RK", "T"} <= families and "E" in RULES
+    assert "ABj3" in OTHERS
+
+
+@pytest.mark.parametrize("rule", OTHERS)
+def test_every_rule_that_is_no_discrete_time_system_is_refused(rexrov, rule):
+    with pytest.raises(ValueError, match=f"`method` {rule!r}"):
+        discretize(rexrov, rule, 0.1)
 
 
 def test_rules_without_a_state_space_form_are_refused(rexrov):
@@ -188,7 +219,7 @@ def test_steady_state_is_a_fixed_point(rule):
     np.testing.assert_allclose(d.step(z, u), z, rtol=0, atol=1e-13)
 
 
-@pytest.mark.parametrize("rule", ("E", "AB2", "AB4", "ABu4", "RK4", "T"))
+@pytest.mark.parametrize("rule", RULES)
 def test_noise_gain_is_the_prediction_jacobian(rule):
     """On constant data at an equilibrium, the noise gain's first block row is the
     rule's own prediction Jacobian d x_hat / d x_{n-i} (methods' prediction_jacobians)."""
@@ -367,6 +398,7 @@ def test_law_refuses_a_wrong_gain(rexrov):
 # ------------------------------------------------------------------ the studies
 
 
+@pytest.mark.slow
 def test_reproduce_closed_loop_and_multistep(tmp_path):
     from sampledyn.cli import main
 
@@ -436,6 +468,7 @@ def _spring(t, x, u, p, out):
     out[1] = -p[0] * x[0] - p[1] * x[1] + u[0]
 
 
+@pytest.mark.slow
 def test_function_model_kernels_compile_in_process():
     """A FunctionModel's kernel cannot be imported by name: the discrete model is
     compiled in this process with the kernel injected, and steps like RK4 by hand."""

@@ -61,6 +61,7 @@ def _assert_fixture(path: Path, name: str) -> None:
                      label=lambda r: f"{r.get('vehicle', '')} {r['method']}")  # fmt: skip
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("workers", ["1", "2"])
 @pytest.mark.parametrize(
     "args, name",
@@ -77,6 +78,7 @@ def test_numbers_are_those_of_the_studies_own_loops(tmp_path, capsys, args, name
     _assert_fixture(out / f"{name}_runs.csv", name)
 
 
+@pytest.mark.slow
 def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
     """A real process SIGKILLed mid-run keeps its finished cells; the rerun computes
     only the rest, and its rows equal the fixture; results and report read the store."""

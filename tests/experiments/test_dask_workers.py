@@ -9,6 +9,8 @@ import pytest
 
 from sampledyn.experiments.sweep import DASK_WORKER_ENVIRON, check_dask_workers, local_cluster
 
+pytestmark = pytest.mark.slow  # a dask cluster of worker processes
+
 distributed = pytest.importorskip("distributed")
 
 

@@ -69,6 +69,7 @@ def test_example_sweep_is_the_built_in_fig7_study():
         ROVStudy(vehicle="rexrov", kp=1.0).config()
 
 
+@pytest.mark.slow
 def test_reproduce_fig7_and_the_sweep_file_agree_bit_for_bit(tmp_path, capsys):
     a, b = tmp_path / "reproduce.db", tmp_path / "sweep.db"
     args = ["--T", SHORT["T"], "--after", SHORT["after"], "--seeds", SHORT["seeds"]]
@@ -97,6 +98,7 @@ def test_reproduce_fig7_and_the_sweep_file_agree_bit_for_bit(tmp_path, capsys):
     assert (tmp_path / "report" / "index.html").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL is POSIX")
 def test_reproduce_fig7_store_resumes_after_sigkill(tmp_path, capsys):
     db = tmp_path / "fig7.db"
@@ -296,6 +298,7 @@ def test_advise_refuses_models_it_cannot_split_and_layouts_without_a_default():
         sd.advise(auv, 0.1, 1.0, 1.0, ("E",))
 
 
+@pytest.mark.slow
 def test_cli_advise_takes_the_input(tmp_path, capsys):
     args = ["advise", "--vehicle", "rexrov", "--h", "0.1", "--T", "10", "--seeds", "1"]
     args += ["--methods", "E,AB2", "--out", str(tmp_path), "--no-validate"]

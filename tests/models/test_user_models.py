@@ -277,6 +277,7 @@ _CACHE_SCRIPT = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_second_process_loads_the_kernels_from_the_disk_cache(tmp_path):
     env = dict(os.environ, SAMPLEDYN_CACHE_DIR=str(tmp_path), PYTHONPATH=str(REPO))
     env.pop("NUMBA_CACHE_DIR", None)
@@ -297,6 +298,7 @@ def test_second_process_loads_the_kernels_from_the_disk_cache(tmp_path):
     print(f"first {first['seconds']:.2f} s, second {second['seconds']:.2f} s")
 
 
+@pytest.mark.slow
 def test_unwritable_cache_dir_falls_back_with_a_warning(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
@@ -315,6 +317,7 @@ def test_unwritable_cache_dir_falls_back_with_a_warning(tmp_path):
     assert "SAMPLEDYN_CACHE_DIR" in message and "not writable" in message
 
 
+@pytest.mark.slow
 def test_import_sampledyn_does_not_import_sympy():
     code = "import sys, sampledyn; print('sympy' in sys.modules)"
     env = dict(os.environ, PYTHONPATH=str(REPO))
