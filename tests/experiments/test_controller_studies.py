@@ -53,7 +53,14 @@ _CLOSED_LOOP = Tol(1e-6, 1e-12, "plant integrated to rtol 1e-10 with error contr
 # at 1e-12 (1 + |x|) per step, amplified by the growth of the rollouts (up to the 1e3
 # of "diverged").
 _MULTISTEP = Tol(1e-9, 1e-12, "k-step rollouts; Tustin's Newton stops at 1e-12 (1 + |x|)")
-_TOL = {"closed_loop": _CLOSED_LOOP, "multistep": _MULTISTEP}
+# A diverged rollout (rms >= 1e3, up to 4e5 here) runs on an unstable mode of the
+# rule's discrete model, which grows a rounding difference step after step (2.3e-9
+# relative with the lowest supported numpy/scipy against the fixture).
+_DIVERGED = Tol(1e-6, 1e-12, "a diverged rollout grows rounding with its unstable mode")
+_TOL = {
+    "closed_loop": _CLOSED_LOOP,
+    "multistep": lambda row, column: _DIVERGED if row["diverged"] == "True" else _MULTISTEP,
+}
 
 
 def _assert_fixture(path: Path, name: str) -> None:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _numbers import Tol, assert_rows_close, read_rows
+from _numbers import AUV_CERTIFICATE_BOUND, assert_rows_close, auv_tolerance, read_rows
 from _sweep_helpers import kill_when_stored
 
 import sampledyn as sd
@@ -124,34 +124,11 @@ def test_reproduce_fig7_store_resumes_after_sigkill(tmp_path, capsys):
         assert (tmp_path / "b" / name).read_text() == (tmp_path / "c" / name).read_text()
 
 
-# Tolerances of the fixture comparison (the fixture was written on another machine).
-# The exact samples take one DOP853 step per sample here (error control never shortens
-# a step: the same numbers at rtol 1e-12 and 0.9e-12), so another CPU changes them
-# only by rounding: atol 1e-13 is 1000 ulps of states of size ~1, which a norm of the
-# local errors inherits (an rms of RK4's 1e-8 errors then keeps 5 digits).
-_FIXED_RULE = Tol(1e-12, 1e-13, "exact samples and predictions to rounding")
-# Ee and ABe_s fit their parameters by least squares over ~2500 rows with a condition
-# number <= 13 (res.condition_number on these runs): forward error <= rows * kappa *
-# eps ~ 7e-12 relative, which the error norms of the fitted rule inherit.
-_FITTED_RULE = Tol(1e-10, 1e-13, "least squares: rows * condition number * eps")
-# tau_min is an eigenvalue problem of a 2 x 2 Jacobian: rounding only.
-_TAU = Tol(1e-12, 0.0, "2 x 2 eigenvalues")
-# The certificate is the difference of two integrations (it varies by tens of percent
-# between machines): only its documented bound ("below 1e-13", README) is checked.
-_CERTIFICATE_BOUND = {"certificate": 1e-13}
-
-
-def _auv_tolerance(row, column):
-    if column == "tau_min":
-        return _TAU
-    return _FITTED_RULE if sd.get_method(row["method"]).estimates_params else _FIXED_RULE
-
-
 @pytest.mark.parametrize("figure", ["fig2", "fig3"])
 def test_fig2_fig3_numbers_are_those_of_the_code_before_the_engine(tmp_path, figure, capsys):
     """The CSV written by ``reproduce`` before the engine existed (commit 8d32ba0, same
     options, another machine): every AB, ABu, ABj, ABe, T, RK, E, Ee row, every column,
-    to the tolerances above (names and flags exactly)."""
+    to the tolerances of ``_numbers.auv_tolerance`` (names and flags exactly)."""
     args = ["--T", "30", "--after", "5", "--ratios", "1,2,10,50", "--out", str(tmp_path)]
     assert main(["reproduce", figure, *args]) == 0
     printed = capsys.readouterr().out
@@ -160,7 +137,7 @@ def test_fig2_fig3_numbers_are_those_of_the_code_before_the_engine(tmp_path, fig
     assert len(now) == len(before) > 0
     # the fixture's columns, in its row order
     new = [{k: now[(r["hold_ratio"], r["method"])][k] for k in r} for r in before]
-    assert_rows_close(new, before, _auv_tolerance, bounds=_CERTIFICATE_BOUND,
+    assert_rows_close(new, before, auv_tolerance, bounds=AUV_CERTIFICATE_BOUND,
                       label=lambda r: f"{r['method']} h_u/h={r['hold_ratio']}")  # fmt: skip
     # A masked norm without samples is explained, not a bare nan.
     assert "n/a (rms_away_from_jumps, h_u/h = 1, 2)" in printed
