@@ -8,35 +8,20 @@ import pytest
 import sampledyn as sd
 
 
-def test_trajectory_shapes():
-    t = np.arange(5.0)
-    with pytest.raises(ValueError, match="`x` must have shape"):
-        sd.Trajectory(
-            t=t,
-            x=np.zeros((4, 2)),
-            u=np.zeros((5, 1)),
-            h=1.0,
-            state_names=("a", "b"),
-            state_units=("", ""),
-        )
-    with pytest.raises(ValueError, match="`u` must have shape"):
-        sd.Trajectory(
-            t=t,
-            x=np.zeros((5, 2)),
-            u=np.zeros((3, 1)),
-            h=1.0,
-            state_names=("a", "b"),
-            state_units=("", ""),
-        )
-    with pytest.raises(ValueError, match="`state_names`"):
-        sd.Trajectory(
-            t=t,
-            x=np.zeros((5, 2)),
-            u=np.zeros((5, 1)),
-            h=1.0,
-            state_names=("a",),
-            state_units=("",),
-        )
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"x": np.zeros((4, 2))}, "`x` must have shape"),
+        ({"u": np.zeros((3, 1))}, "`u` must have shape"),
+        ({"state_names": ("a",), "state_units": ("",)}, "`state_names`"),
+    ],
+)
+def test_trajectory_shapes(change, message):
+    good = dict(t=np.arange(5.0), x=np.zeros((5, 2)), u=np.zeros((5, 1)), h=1.0,
+                state_names=("a", "b"), state_units=("", ""))  # fmt: skip
+    sd.Trajectory(**good)
+    with pytest.raises(ValueError, match=message):
+        sd.Trajectory(**{**good, **change})
 
 
 def test_trajectory_checks_are_remembered_and_unchanged():
