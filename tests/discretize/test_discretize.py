@@ -9,27 +9,27 @@ import sympy as sp
 
 import sampledyn as sd
 from sampledyn.discretize import LinearLaw, casadi_rhs, discretize, run_loop
+from sampledyn.methods import DiscreteTimeSystem, Predictor, StepProgram
 from sampledyn.models import AttitudeHold, AUVLike, SymbolicModel, load_vehicle
 from sampledyn.signals import fig6_thrusters
 
 
 def _is_discrete_time_system(name: str) -> bool:
-    """What the rule object says: a rule that fits no parameters on its data and keeps
-    a state layout (``state_layout`` raises NotImplementedError for one that has none,
-    e.g. ABj_s) is a system z+ = F(z, u)."""
-    rule = sd.get_method(name)
-    if rule.estimates_params or getattr(type(rule), "state_layout", None) is None:
-        return False
-    try:
-        rule.state_layout  # noqa: B018  (the property raises for a rule without one)
-    except NotImplementedError:
-        return False
-    return True
+    """What the rule object says: it is a system z+ = F(z, u) if it states its step
+    (the DiscreteTimeSystem protocol of sampledyn.methods)."""
+    return isinstance(sd.get_method(name), DiscreteTimeSystem)
 
 
 # Every registered rule that is a discrete-time system: a new rule enrols itself.
 RULES = tuple(n for n in sd.available_methods() if _is_discrete_time_system(n))
 OTHERS = tuple(n for n in sd.available_methods() if n not in RULES)
+# ... those that also predict on sampled data (ZOH does not: it is a system only) ...
+PREDICTORS = tuple(n for n in RULES if isinstance(sd.get_method(n), Predictor))
+# ... and those whose step is arithmetic written once (a StepProgram): its linearisation
+# is the step's derivative everywhere and CasADi's view the same arithmetic. ZOH's step
+# integrates the flow to a tolerance and its linearisation is the flow's derivative at
+# a trim only: tests/discretize/test_zoh.py checks both.
+PROGRAMS = tuple(n for n in RULES if isinstance(sd.get_method(n).discrete_step, StepProgram))
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +61,7 @@ def _linear_model(seed: int = 0):
 # ------------------------------------------------------------------ the system
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PREDICTORS)
 def test_rollout_one_step_is_predict(rexrov, measured, rule):
     """k = 1 equals sd.predict on the same noisy data: bit for bit for the explicit
     rules (same arithmetic), to Newton's tolerance for Tustin; NaN rows alike."""
@@ -115,8 +115,8 @@ def test_every_kind_of_rule_is_enrolled():
     """The families the docs name as discrete-time systems are among the enrolled rules
     (the enrolment asks the objects; this guards against it enrolling nothing)."""
     families = {sd.get_method(n).family for n in RULES}
-    assert {"AB", "ABu", "RK", "T"} <= families and "E" in RULES
-    assert "ABj3" in OTHERS
+    assert {"AB", "ABu", "RK", "T", "ZOH"} <= families and "E" in RULES
+    assert "ABj3" in OTHERS and set(PROGRAMS) <= set(PREDICTORS)
 
 
 @pytest.mark.parametrize("rule", OTHERS)
@@ -191,7 +191,7 @@ def _fd(fun, v, eps):
     return np.stack(cols, axis=1)
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PROGRAMS)
 @pytest.mark.parametrize("delay", [False, True])
 def test_linearize_against_central_differences(rexrov, measured, rule, delay):
     """(A_d, B_d) from the analytic Jacobians against central differences of step, on
@@ -219,7 +219,7 @@ def test_steady_state_is_a_fixed_point(rule):
     np.testing.assert_allclose(d.step(z, u), z, rtol=0, atol=1e-13)
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PREDICTORS)
 def test_noise_gain_is_the_prediction_jacobian(rule):
     """On constant data at an equilibrium, the noise gain's first block row is the
     rule's own prediction Jacobian d x_hat / d x_{n-i} (methods' prediction_jacobians)."""
@@ -271,7 +271,7 @@ def test_to_control_linear_is_ready_for_dlqr(rexrov):
     assert np.abs(E).max() < 1
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PROGRAMS)
 @pytest.mark.parametrize("delay", [False, True])
 def test_to_casadi_equals_step(rexrov, rule, delay):
     """F(z, u) of CasADi equals step to 1e-12 (relative to the state's size) at random
@@ -318,12 +318,11 @@ def test_closed_loop_tracks_as_the_design_predicts(rexrov):
     follows the linear closed-loop prediction on the exact zero-order-hold model, and
     the gap is second order in the initial error (it falls 4x when that halves)."""
     from sampledyn.experiments import design_lqr, trim
-    from sampledyn.experiments._closed_loop import _zoh  # the test's reference
 
     h = 0.02
     x, u = trim(rexrov, 0.5, 5.0, 0.5)
     design = design_lqr(rexrov, "RK4", h, x, u)
-    Az, Bz = _zoh(rexrov, x, u, h)
+    Az, Bz = discretize(rexrov, "ZOH", h).linearize(x, u)  # the exact ZOH, checked in test_zoh
     K = design.law.gain
     Acl = Az + Bz @ K
     gaps = []
