@@ -1,8 +1,10 @@
 """Comparing numbers computed here with numbers stored from another run (a committed
 CSV, a fixture written by older code): by a tolerance that the caller states and
-justifies, never bit for bit. Least squares, LAPACK, libm and numba's code for the
-host CPU (FMA contraction, vector width) round differently on other CPUs and library
-versions, so the last digits of a stored number are not the code's to keep.
+justifies, never bit for bit. BLAS/LAPACK pick kernels for the CPU (OpenBLAS's Zen
+kernels against its SkylakeX ones: OPENBLAS_CORETYPE=Zen on an Intel machine gives
+an AMD EPYC's digits), and libm, numpy's SIMD loops and numba's code for the host CPU
+may too; other library versions round otherwise again. The last digits of a stored
+number are not the code's to keep.
 
 A column is compared as numbers when both cells parse as floats (``nan`` equals
 ``nan``), else as text (names, flags, statuses must match exactly). A column listed in
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import sampledyn as sd
+from sampledyn.methods import Estimator
 
 
 @dataclass(frozen=True)
@@ -122,5 +125,5 @@ def auv_tolerance(row: Mapping[str, str], column: str) -> Tol:
     """The tolerance of a cell of a fig2/fig3 CSV (row: the stored row)."""
     if column == "tau_min":
         return AUV_TAU
-    fitted = sd.get_method(row["method"]).estimates_params
+    fitted = isinstance(sd.get_method(row["method"]), Estimator)
     return AUV_FITTED_RULE if fitted else AUV_FIXED_RULE
