@@ -30,6 +30,8 @@ PREDICTORS = tuple(n for n in RULES if isinstance(sd.get_method(n), Predictor))
 # integrates the flow to a tolerance and its linearisation is the flow's derivative at
 # a trim only: tests/discretize/test_zoh.py checks both.
 PROGRAMS = tuple(n for n in RULES if isinstance(sd.get_method(n).discrete_step, StepProgram))
+# A step that integrates the flow (ZOH) takes a DOP853 run per step: slow over a run.
+RULES_SLOW_FLOWS = [n if n in PROGRAMS else pytest.param(n, marks=pytest.mark.slow) for n in RULES]
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +77,7 @@ def test_rollout_one_step_is_predict(rexrov, measured, rule):
         np.testing.assert_array_equal(got, want)
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", RULES_SLOW_FLOWS)
 def test_rollout_is_k_steps(rexrov, measured, rule):
     """Row n of rollout(k) is k applications of step from the z of the data at n - k,
     with the measured inputs; rows without history are NaN."""
