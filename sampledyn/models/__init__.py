@@ -11,6 +11,8 @@ from ._attitude_hold import roll_pitch_hold as roll_pitch_hold
 from ._auv import AUVLike as AUVLike
 
 # numba signatures of compiled right-hand sides, for the simulator's kernels
+from ._base import JAC_SIG as JAC_SIG
+from ._base import JAC_TYPE as JAC_TYPE
 from ._base import RHS_SIG as RHS_SIG
 from ._base import RHS_TYPE as RHS_TYPE
 from ._base import RO1 as RO1
@@ -28,6 +30,8 @@ from ._codegen import cache_dir as cache_dir
 from ._codegen import import_line as kernel_import_line
 from ._codegen import load_module as load_generated_module
 from ._function import FunctionModel as FunctionModel
+from ._jumps import decide as decide
+from ._jumps import sliding_weight as sliding_weight
 from ._rigid_body import SingularPitchError as SingularPitchError
 from ._rigid_body import rotation_jacobian as rotation_jacobian
 from ._rigid_body import rotation_jacobian_inverse as rotation_jacobian_inverse
