@@ -55,7 +55,9 @@ import warnings
 
 import numpy as np
 from numba import njit, types
+from numba.core import cgutils
 from numba.core.errors import NumbaExperimentalFeatureWarning
+from numba.extending import intrinsic
 
 from . import _dop853 as _dop
 from .models import JAC_SIG, JAC_TYPE, RHS_TYPE, RO1, RO2, decide, sliding_weight
@@ -133,6 +135,29 @@ GA, GB, GR, GP = range(4)
 U_, DU, HOLD, OFFSET = range(4)
 
 
+@intrinsic
+def _borrow(typingctx, arr):  # pragma: no cover - compiled
+    """The array ``arr`` without its reference count (no memory owner): numba takes
+    and drops a reference to every array at each function entry and exit and at every
+    view, atomic operations that cost more than a step of a small model; the
+    integrator's arrays are owned by :func:`integrate` (or its caller) for the whole
+    call, so the helpers it calls work on borrowed ones, whose counting is a test
+    for null."""
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(arr)(context, builder, value=args[0])
+        out = context.make_array(arr)(context, builder)
+        for name in ("nitems", "itemsize", "data", "shape", "strides"):
+            setattr(out, name, getattr(src, name))
+        out.meminfo = cgutils.get_null_value(out.meminfo.type)
+        out.parent = cgutils.get_null_value(out.parent.type)
+        return out._getvalue()
+
+    return arr(arr), codegen
+
+
 @njit(cache=True)
 def _input_at(U, S, t):  # pragma: no cover - compiled
     """u(t) into U[U_]: the interval's held part, the offset and the sinusoids."""
@@ -193,22 +218,32 @@ def _filippov(rhs, grad, q, pos, k, t, y, U, V, G, out):  # pragma: no cover - c
         out[i] = V[F0, i] + a * (V[F0 + 1, i] - V[F0, i])
 
 
-@njit(inline="always")
-def _field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - compiled
-    """f of the current mode at (t, y), u in U[U_]: the branch of the sides in ``q``,
-    or, while sliding on surface ``mode[0]``, Filippov's sliding vector."""
-    if mode[0] < 0:
-        rhs(t, y, U[U_], q, out)
-    else:
-        _input_rate(U, S, t)
-        _filippov(rhs, grad, q, mode[1], mode[0], t, y, U, V, G, out)
+@njit(cache=True)
+def _sliding_field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - compiled
+    """Filippov's sliding vector on surface ``mode[0]`` at (t, y), u in U[U_]."""
+    _input_rate(U, S, t)
+    _filippov(rhs, grad, q, mode[1], mode[0], t, y, U, V, G, out)
 
 
 @njit(cache=True)
-def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew):  # pragma: no cover
-    """Stages 1..11 given K[0] already; writes y_new."""
+def _field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - compiled
+    """f of the current mode at (t, y), u in U[U_]: the branch of the sides in ``q``,
+    or, while sliding on surface ``mode[0]``, Filippov's sliding vector. (The steps
+    test the mode themselves and call ``rhs`` directly: a call that passes this many
+    arrays costs their reference counts, which would double the cost of a step.)"""
+    if mode[0] < 0:
+        rhs(t, y, U[U_], q, out)
+    else:
+        _sliding_field(rhs, grad, q, mode, S, U, V, G, t, y, out)
+
+
+@njit(inline="always")
+def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew, ytmp, u):  # pragma: no cover
+    """Stages 1..11 given K[0] already; writes y_new. (ytmp, u: the rows V[YTMP] and
+    U[U_], made once by the caller: a view made here would cost its reference count
+    on every step.)"""
     nx = y.shape[0]
-    ytmp = V[YTMP]
+    smooth = mode[0] < 0
     for s in range(1, _NS):
         for j in range(nx):
             acc = 0.0
@@ -217,7 +252,10 @@ def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew):  # pragma: n
             ytmp[j] = y[j] + dt * acc
         ts = t + _C[s] * dt
         _input_at(U, S, ts)
-        _field(rhs, grad, q, mode, S, U, V, G, ts, ytmp, K[s])
+        if smooth:
+            rhs(ts, ytmp, u, q, K[s])
+        else:
+            _sliding_field(rhs, grad, q, mode, S, U, V, G, ts, ytmp, K[s])
     for j in range(nx):
         acc = 0.0
         for m in range(_NS):
@@ -498,47 +536,63 @@ def _error(K, y, ynew, dt, rtol, atol):  # pragma: no cover - compiled
     return dt * e5 / math.sqrt((e5 + 0.01 * e3) * nx), finite
 
 
-@njit(cache=True)
-def _half_steps(rhs, grad, q, mode, S, U, V, G, tc, step):  # pragma: no cover - compiled
-    """The certifying run: the same step as two half steps from the fine state
-    V[YF], with the same field (branch or sliding vector) as the main run."""
+@njit(inline="always")
+def _half_steps(rhs, grad, q, mode, S, U, V, G, tc, step, yf, yfm, yfn, Kf, ytmp, u):  # pragma: no cover
+    """The certifying run: the same step as two half steps from the fine state yf
+    (V[YF]), with the same field (branch or sliding vector) as the main run."""
     half = 0.5 * step
-    Kf = V[KF : KF + _NS + 1]
     _input_at(U, S, tc)
-    _field(rhs, grad, q, mode, S, U, V, G, tc, V[YF], Kf[0])
-    _dop_stages(rhs, grad, q, mode, S, U, V, G, tc, V[YF], half, Kf, V[YFM])
+    if mode[0] < 0:
+        rhs(tc, yf, u, q, Kf[0])
+    else:
+        _sliding_field(rhs, grad, q, mode, S, U, V, G, tc, yf, Kf[0])
+    _dop_stages(rhs, grad, q, mode, S, U, V, G, tc, yf, half, Kf, yfm, ytmp, u)
     _input_at(U, S, tc + half)
-    _field(rhs, grad, q, mode, S, U, V, G, tc + half, V[YFM], Kf[0])
-    _dop_stages(rhs, grad, q, mode, S, U, V, G, tc + half, V[YFM], half, Kf, V[YFN])
-    for j in range(V.shape[1]):
-        V[YF, j] = V[YFN, j]
+    if mode[0] < 0:
+        rhs(tc + half, yfm, u, q, Kf[0])
+    else:
+        _sliding_field(rhs, grad, q, mode, S, U, V, G, tc + half, yfm, Kf[0])
+    _dop_stages(rhs, grad, q, mode, S, U, V, G, tc + half, yfm, half, Kf, yfn, ytmp, u)
+    for j in range(yf.shape[0]):
+        yf[j] = yfn[j]
 
 
-@njit(cache=True)
-def _attempt(rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, tc, dt, fresh):  # pragma: no cover
-    """One trial step of size dt from (tc, V[Y]), cut to end on the first event:
+@njit(inline="always")
+def _attempt(
+    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, tc, dt, fresh, y, ynew, ytmp,
+    u, K, ga, gb,
+):  # fmt: skip  # pragma: no cover - compiled
+    """One trial step of size dt from (tc, y), cut to end on the first event:
     ``(dt, tn, cut, start)``. ``cut``: the event value the step ends on (-1: none);
-    ``start`` >= 0: that event happens at tc already (no step was taken)."""
+    ``start`` >= 0: that event happens at tc already (no step was taken). y, ynew,
+    ytmp, u, K, ga, gb: the rows of V, U and E (:func:`_intervals`)."""
     n_sw = sw_info.shape[0]
-    y = V[Y]
-    K = V[K_ : K_ + _NS + 1]
     if n_sw > 0:
         _input_at(U, S, tc)
-        _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc, y, E[GA])
+        if mode[0] < 0:
+            sw(tc, y, u, sp, ga)
+        else:
+            _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc, y, ga)
     cut = -1
     while True:
-        _dop_stages(rhs, grad, q, mode, S, U, V, G, tc, y, dt, K, V[YNEW])
+        _dop_stages(rhs, grad, q, mode, S, U, V, G, tc, y, dt, K, ynew, ytmp, u)
         tn = tc + dt
         if tb - tn < 1e-9 * (tb - ta):
             tn = tb
         _input_at(U, S, tn)
-        _field(rhs, grad, q, mode, S, U, V, G, tn, V[YNEW], K[_NS])
+        if mode[0] < 0:
+            rhs(tn, ynew, u, q, K[_NS])
+        else:
+            _sliding_field(rhs, grad, q, mode, S, U, V, G, tn, ynew, K[_NS])
         # Does an event value change sign inside the step? Then end the step on the
         # first such zero (located on the step's Hermite interpolant), so that f is
         # smooth on every step; the error test follows.
         tau = dt
         if n_sw > 0:
-            _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tn, V[YNEW], E[GB])
+            if mode[0] < 0:
+                sw(tn, ynew, u, sp, gb)
+            else:
+                _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tn, ynew, gb)
             tau, found, start = _first_event(
                 sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, tc, dt, fresh
             )
@@ -583,36 +637,41 @@ def _accept(sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log
     return _event(rhs, grad, q, mode, sw_info, S, U, V, G, cut, tc, st, log)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _advance(
-    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, rtol, atol, certify, st, log,
-    budget, max_steps, work,
+    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, ctl, st, log, work, y, yf,
+    ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Steps of the interval [ta, tb] from the state in (st, V) until its end (OK), a
-    pause after ``budget`` attempts in this call, or a stop; (status, work done)."""
-    y = V[Y]
-    K = V[K_ : K_ + _NS + 1]
+    pause after ``budget`` attempts in this call, or a stop; (status, work done).
+    ``ctl``: rtol, atol, certify, budget, max_steps. y ... gb: the rows of V, U and E
+    the steps use, made once (:func:`_intervals`; an inlined function takes at most
+    30 arguments)."""
+    rtol, atol, certify = ctl[0], ctl[1], ctl[2] != 0.0
+    budget, max_steps = ctl[3], ctl[4]
     min_dt = 1e-12 * (tb - ta)
     tc = st[S_TC]
     dt_free = st[S_DT]
     rejected = st[S_REJ] != 0.0
     status = OK
     while tc < tb and status == OK:
-        status = _checkpoint(st, log, work, budget, max_steps, tc)
-        if status != OK:
+        if work >= budget or st[S_WORK] >= max_steps or st[S_NLOG] + 4.0 > log.shape[0]:
+            status = _checkpoint(st, log, work, budget, max_steps, tc)
             break
+        st[S_WORK] += 1.0
         work += 1
         # dt_free is the step the error control proposes.
         dt = dt_free
         if dt > tb - tc or tb - (tc + dt) < 1e-9 * (tb - ta):
             dt = tb - tc
         dt, tn, cut, start = _attempt(
-            rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, tc, dt, int(st[S_FRESH])
-        )
+            rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, tc, dt,
+            int(st[S_FRESH]), y, ynew, ytmp, u, K, ga, gb,
+        )  # fmt: skip
         if start >= 0:
             status = _event(rhs, grad, q, mode, sw_info, S, U, V, G, start, tc, st, log)
             continue
-        err, finite = _error(K, y, V[YNEW], dt, rtol, atol)
+        err, finite = _error(K, y, ynew, dt, rtol, atol)
         if not finite:
             status = NONFINITE
         elif err > 1.0:
@@ -623,16 +682,19 @@ def _advance(
         else:
             step = tn - tc
             if certify:
-                _half_steps(rhs, grad, q, mode, S, U, V, G, tc, step)
+                _half_steps(rhs, grad, q, mode, S, U, V, G, tc, step, yf, yfm, yfn, Kf, ytmp, u)
             tc = tn
             for j in range(y.shape[0]):
-                y[j] = V[YNEW, j]
+                y[j] = ynew[j]
                 K[0, j] = K[_NS, j]
             st[S_COUNT] += 1.0
             st[S_FRESH] = -1.0
             dt_free = _new_step(err, step, dt_free, rejected)
             rejected = False
-            status = _accept(sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log)
+            if cut >= 0 or mode[0] >= 0:
+                status = _accept(
+                    sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log
+                )
     st[S_TC] = tc
     st[S_DT] = dt_free
     st[S_REJ] = 1.0 if rejected else 0.0
@@ -641,44 +703,40 @@ def _advance(
 
 @njit(cache=True)
 def _checkpoint(st, log, work, budget, max_steps, tc):  # pragma: no cover - compiled
-    """Before a step attempt: pause (the call's budget is spent, or the sliding log
-    may fill), or stop a stalled interval; counts the attempt."""
+    """Why the steps stop before an attempt: a pause (the call's budget is spent, or
+    the sliding log may fill), or a stalled interval."""
     if work >= budget:
         return PAUSED
     if st[S_NLOG] + 4.0 > log.shape[0]:
         return LOG_FULL
-    if st[S_WORK] >= max_steps:
-        return _refuse(st, STALL, tc, st[S_ERR_K], 0.0, 0.0)
-    st[S_WORK] += 1.0
-    return OK
+    return _refuse(st, STALL, tc, st[S_ERR_K], 0.0, 0.0)
 
 
 # ------------------------------------------------------------ interval ends
 @njit(cache=True)
-def _begin(rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, n, t, X, restart, st, log):  # pragma: no cover
-    """Start interval n from X[n]: the sides of the jumps (at the first interval, or
-    where the input moved a surface), the first stage. Returns a status."""
-    y = V[Y]
+def _begin(V, X, restart, n, tc, st):  # pragma: no cover - compiled
+    """Start interval n at tc from X[n] (the certifying run too, at a sample time)."""
     for j in range(X.shape[1]):
-        y[j] = X[n, j]
+        V[Y, j] = X[n, j]
         if restart[n]:
             V[YF, j] = X[n, j]
-    tc = t[n]
-    status = OK
-    if _has_jumps(sw_info):
-        _input_at(U, S, tc)
-        _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc, y, E[GR])
-        _input_rate(U, S, tc)
-        status = _set_sides(rhs, grad, q, mode, sw_info, U, V, G, E[GR], tc, st, log)
-        st[S_READY] = 1.0
     st[S_TC] = tc
     st[S_REJ] = 0.0
     st[S_COUNT] = 0.0
     st[S_WORK] = 0.0
     st[S_FRESH] = -1.0
     st[S_PHASE] = 1.0
+
+
+@njit(cache=True)
+def _begin_jumps(rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, tc, st, log):  # pragma: no cover
+    """The sides of the jumps at an interval's start: at the first interval, or where
+    the input moved a surface. Returns a status."""
     _input_at(U, S, tc)
-    _field(rhs, grad, q, mode, S, U, V, G, tc, y, V[K0])
+    _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc, V[Y], E[GR])
+    _input_rate(U, S, tc)
+    status = _set_sides(rhs, grad, q, mode, sw_info, U, V, G, E[GR], tc, st, log)
+    st[S_READY] = 1.0
     return status
 
 
@@ -722,20 +780,59 @@ def _moved(sw_info, g, st, k, first):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _finish(sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, n, t, X, steps, diff, st):  # pragma: no cover
-    """Interval n is done: its end sample, its certificate difference, its steps; the
-    switching values at its end (to tell where the next interval's input moves one)."""
+def _finish(X, steps, diff, V, st, n):  # pragma: no cover - compiled
+    """Interval n is done: its end sample, its certificate difference, its steps."""
     for j in range(X.shape[1]):
         X[n + 1, j] = V[Y, j]
         diff[n, j] = V[Y, j] - V[YF, j]
     steps[n] = int(st[S_COUNT])
-    if _has_jumps(sw_info):
-        _input_at(U, S, t[n + 1])
-        _events(sw, sp, rhs, grad, q, mode, U, V, G, S, t[n + 1], V[Y], E[GR])
-        for k in range(sw_info.shape[0]):
-            st[_S_G + k] = E[GR, k]
     st[S_N] = n + 1
     st[S_PHASE] = 0.0
+
+
+@njit(cache=True)
+def _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, tb, st):  # pragma: no cover
+    """The switching values at an interval's end (to tell where the next interval's
+    input moves a surface)."""
+    _input_at(U, S, tb)
+    _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tb, V[Y], E[GR])
+    for k in range(E.shape[1] - 2):
+        st[_S_G + k] = E[GR, k]
+
+
+@njit(cache=True)
+def _intervals(
+    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t, hold, ctl, n_stop, X, steps, diff,
+    restart, st, log,
+):  # fmt: skip  # pragma: no cover - compiled
+    """The intervals from st[S_N] to n_stop - 1 (see :func:`integrate`)."""
+    y, yf, ynew, ytmp, yfm, yfn = V[Y], V[YF], V[YNEW], V[YTMP], V[YFM], V[YFN]
+    K, Kf, u, ga, gb = V[K_ : K_ + _NS + 1], V[KF : KF + _NS + 1], U[U_], E[GA], E[GB]
+    jumps = _has_jumps(sw_info)
+    work = np.int64(0)
+    status = OK
+    while int(st[S_N]) < n_stop and status == OK:
+        n = int(st[S_N])
+        for j in range(U.shape[1]):
+            U[HOLD, j] = hold[n, j]
+        if st[S_PHASE] == 0.0:
+            _begin(V, X, restart, n, t[n], st)
+            if jumps:
+                status = _begin_jumps(
+                    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t[n], st, log
+                )
+            _input_at(U, S, t[n])
+            _field(rhs, grad, q, mode, S, U, V, G, t[n], y, K[0])
+        if status == OK:
+            status, work = _advance(
+                rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t[n], t[n + 1], ctl, st, log,
+                work, y, yf, ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
+            )  # fmt: skip
+        if status == OK:
+            _finish(X, steps, diff, V, st, n)
+            if jumps:
+                _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, t[n + 1], st)
+    return status
 
 
 _F = types.float64
@@ -791,26 +888,21 @@ def _integrate(
             S[1, j, k] = freq[j, k]
             S[2, j, k] = phase[j, k]
     G = np.empty((max(n_sw, 1), nx + 1 + nu))
+    ctl = np.empty(5)
+    ctl[0] = rtol
+    ctl[1] = atol
+    ctl[2] = 1.0 if certify else 0.0
+    ctl[3] = budget
+    ctl[4] = max_steps
     mode = np.empty(2, dtype=np.int64)
     mode[0] = int(st[S_SLIDE])
     mode[1] = sw_info[mode[0], 0] if mode[0] >= 0 else -1
-    work = np.int64(0)
-    status = OK
-    while int(st[S_N]) < n_stop and status == OK:
-        n = int(st[S_N])
-        for j in range(nu):
-            U[HOLD, j] = hold[n, j]
-        if st[S_PHASE] == 0.0:
-            status = _begin(
-                rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, n, t, X, restart, st, log
-            )
-        if status == OK:
-            status, work = _advance(
-                rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t[n], t[n + 1], rtol, atol,
-                certify, st, log, budget, max_steps, work,
-            )  # fmt: skip
-        if status == OK:
-            _finish(sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, n, t, X, steps, diff, st)
+    status = _intervals(
+        rhs, grad, _borrow(q), _borrow(mode), sw, _borrow(sp), _borrow(sw_info), _borrow(S),
+        _borrow(U), _borrow(V), _borrow(G), _borrow(E), _borrow(t), _borrow(hold),
+        _borrow(ctl), n_stop, _borrow(X), _borrow(steps), _borrow(diff), _borrow(restart),
+        _borrow(st), _borrow(log),
+    )  # fmt: skip
     st[S_SLIDE] = mode[0]
     return status
 
