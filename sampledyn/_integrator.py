@@ -574,6 +574,7 @@ def _attempt(
         else:
             _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc, y, ga)
     cut = -1
+    lo_dt, lo_g, hi_dt, hi_g, kept, tries = 0.0, 0.0, 0.0, 0.0, 0, 0
     while True:
         _dop_stages(rhs, grad, q, mode, S, U, V, G, tc, y, dt, K, ynew, ytmp, u)
         tn = tc + dt
@@ -588,6 +589,7 @@ def _attempt(
         # first such zero (located on the step's Hermite interpolant), so that f is
         # smooth on every step; the error test follows.
         tau = dt
+        found = -1
         if n_sw > 0:
             if mode[0] < 0:
                 sw(tn, ynew, u, sp, gb)
@@ -598,11 +600,52 @@ def _attempt(
             )
             if start >= 0:
                 return dt, tn, cut, start
-            cut = found if found >= 0 else cut
-        if 1e-6 * dt < tau < dt * (1.0 - 1e-9):
+        if found >= 0 and 1e-6 * dt < tau < dt * (1.0 - 1e-9):
+            if found != cut:  # the crossing lies between the step's start and this end
+                lo_dt, lo_g = 0.0, ga[found]
+            hi_dt, hi_g, cut = dt, gb[found], found
             dt = tau
             continue
-        return dt, tn, cut, -1
+        cut = found if found >= 0 else cut
+        if cut < 0 or cut >= n_sw or sw_info[cut, 0] < 0 or tries >= 40:
+            return dt, tn, cut, -1
+        # A jump: its crossing to rounding, by the secant method on the step's own end
+        # values. (The interpolant places it to about 1e-9 of a step, which is enough
+        # for a kink, whose error grows with the cube of the offset, not for a jump,
+        # which turns the offset into an error of its size times the jump of f.)
+        lo_dt, lo_g, hi_dt, hi_g, kept, nxt = _secant(
+            dt, gb[cut], q[sw_info[cut, 0]], lo_dt, lo_g, hi_dt, hi_g, kept
+        )
+        if nxt < 0.0:
+            return dt, tn, cut, -1
+        dt = nxt
+        tries += 1
+
+
+@njit(inline="always")
+def _secant(dt, g, side, lo_dt, lo_g, hi_dt, hi_g, kept):  # pragma: no cover - compiled
+    """One Illinois step on the step length: ``g`` is the switching value at the end
+    of a step of length dt (``side``: its sign before the crossing); the bracket
+    [lo_dt, hi_dt] holds the crossing. Returns the new bracket and the next length to
+    try, -1 when the crossing is found (bracket or value at rounding level)."""
+    if g * side > 0.0:
+        lo_dt, lo_g = dt, g
+        if kept == 1:
+            hi_g *= 0.5
+        kept = 1
+    else:
+        hi_dt, hi_g = dt, g
+        if kept == -1:
+            lo_g *= 0.5
+        kept = -1
+    if hi_dt - lo_dt <= 1e-15 * hi_dt or abs(g) <= 1e-15 * max(abs(lo_g), abs(hi_g)):
+        return lo_dt, lo_g, hi_dt, hi_g, kept, -1.0
+    nxt = (lo_dt * hi_g - hi_dt * lo_g) / (hi_g - lo_g)
+    if not lo_dt < nxt < hi_dt:
+        nxt = 0.5 * (lo_dt + hi_dt)
+    if nxt == dt:
+        return lo_dt, lo_g, hi_dt, hi_g, kept, -1.0
+    return lo_dt, lo_g, hi_dt, hi_g, kept, nxt
 
 
 @njit(inline="always")

@@ -521,7 +521,8 @@ def _run(
         try:
             run.chunk(nodes[a : b + 1], spec, X[a : b + 1], steps[a:b], d_out, restart[a : b + 1])
         except KeyboardInterrupt:
-            t_at = float(nodes[a + int(run.st[_int.S_N])])
+            st = run.st
+            t_at = float(st[_int.S_TC] if st[_int.S_PHASE] else nodes[a + int(st[_int.S_N])])
             raise KeyboardInterrupt(
                 f"simulate interrupted at t = {t_at:.6g} s of {float(nodes[-1]):g} s"
             ) from None

@@ -27,6 +27,7 @@ from .. import estimate as _estimate  # noqa: F401
 from .._trajectory import Trajectory
 from ..methods import get_method, uniform_step
 from ..models import (
+    jump_surface_at,
     JacobianUnavailableError,
     kernel_import_line,
     load_generated_module,
@@ -483,11 +484,21 @@ class DiscreteModel:
         ------
         JacobianUnavailableError
             if the model has no df/dx or df/du.
+        ValueError
+            at a state on a switching surface where f jumps (no df/dx exists there).
         """
         z, u = self._vectors(z, u)
         _finite(z, "z")
         _finite(u, "u")
         c = self._core
+        applied_u = z[self._core :] if self.delay else u
+        surface = jump_surface_at(self.model, float(t), z[: self.nx], applied_u)
+        if surface is not None:
+            raise ValueError(
+                f"`z` puts the state on the switching surface {surface} = 0, across which f "
+                "jumps: f has no Jacobian there, so the model has no linearisation at this "
+                "point. Linearise at a state off the surface (on the side the motion is)."
+            )
         applied = z[c:] if self.delay else u
         A, B = self.method.linearize(self.model, float(t), z[:c], applied, self.h)
         if not self.delay:

@@ -32,6 +32,7 @@ from ._codegen import load_module as load_generated_module
 from ._function import FunctionModel as FunctionModel
 from ._jumps import decide as decide
 from ._jumps import sliding_weight as sliding_weight
+from ._jumps import surface_at as jump_surface_at
 from ._rigid_body import SingularPitchError as SingularPitchError
 from ._rigid_body import rotation_jacobian as rotation_jacobian
 from ._rigid_body import rotation_jacobian_inverse as rotation_jacobian_inverse
@@ -59,6 +60,7 @@ __all__ = [
     "cache_dir",
     "kernel_import_line",
     "load_generated_module",
+    "jump_surface_at",
     "load_vehicle",
     "roll_pitch_hold",
     "rotation_jacobian",

@@ -25,9 +25,12 @@ gives there (``sign(0) = 0``, ``Heaviside(0) = 1/2``) is never used as a vector 
 
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
 from numba import njit
 
-__all__ = ["SURFACE_RHS", "decide", "sliding_weight", "surface_source"]
+__all__ = ["SURFACE_RHS", "decide", "sliding_weight", "surface_at", "surface_source"]
 
 
 @njit(inline="always")
@@ -125,3 +128,26 @@ def surface_source(jumps: tuple[int, ...], n_sw: int, n_p: int) -> str:
         n_p=int(n_p),
         n_jumps=len(jumps),
     )
+
+
+def surface_at(model: Any, t: float, x: Any, u: Any) -> str | None:
+    """The switching surface of a jump of f that (t, x, u) lies on, as text, or None.
+
+    On the surface f has no derivative (it jumps), so df/dx does not exist there. A
+    switching value within 1e-12 max(1, |x|, |u|) of zero counts (the rounding of a
+    state computed to lie on it)."""
+    get = getattr(model, "jump_kernel", None)
+    jumps = get() if get is not None else None
+    if jumps is None:
+        return None
+    sw, sp, _ = model.switch_kernel()
+    x = np.ascontiguousarray(x, dtype=float)
+    u = np.ascontiguousarray(u, dtype=float).reshape(-1)
+    g = np.empty(jumps[3].shape[0])
+    sw(float(t), x, u, np.asarray(sp, dtype=float), g)
+    scale = max(1.0, float(np.abs(x).max(initial=0.0)), float(np.abs(u).max(initial=0.0)))
+    names = model.switching_names() if hasattr(model, "switching_names") else ()
+    for k in np.flatnonzero(jumps[3][:, 0] >= 0):
+        if abs(g[k]) <= 1e-12 * scale:
+            return str(names[k]) if k < len(names) else f"g[{k}]"
+    return None

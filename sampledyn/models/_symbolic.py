@@ -838,7 +838,13 @@ class SymbolicModel(ParameterArrayModel):
         return batch(tt, xx, uu, self._p)
 
     def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
-        """Exact ``df/dx`` (``sympy.diff`` of f), shape (N, nx, nx) (or (nx, nx))."""
+        """Exact ``df/dx`` (``sympy.diff`` of f), shape (N, nx, nx) (or (nx, nx)).
+
+        Where f jumps (``sign``, ``Heaviside``, ``Piecewise`` of a state) this is the
+        Jacobian of the branch of the side the state is on (the Dirac deltas of the
+        jump dropped): across the switching surface f has no Jacobian, and a
+        linearisation on it is refused (:meth:`sampledyn.discretize.DiscreteModel.linearize`).
+        """
         return super().jacobian(t, x, u)
 
     def input_jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
