@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import Any
 
 import numpy as np
 from numba import njit, types
@@ -136,7 +137,7 @@ U_, DU, HOLD, OFFSET = range(4)
 
 
 @intrinsic
-def _borrow(typingctx, arr):  # pragma: no cover - compiled
+def _borrow_intrinsic(typingctx, arr):  # pragma: no cover - compiled
     """The array ``arr`` without its reference count (no memory owner): numba takes
     and drops a reference to every array at each function entry and exit and at every
     view, atomic operations that cost more than a step of a small model; the
@@ -156,6 +157,9 @@ def _borrow(typingctx, arr):  # pragma: no cover - compiled
         return out._getvalue()
 
     return arr(arr), codegen
+
+
+_borrow: Any = _borrow_intrinsic  # called as _borrow(arr) in compiled code
 
 
 @njit(cache=True)
@@ -291,15 +295,15 @@ def _switch_inside(sw, sp, rhs, grad, q, mode, S, U, V, G, tc, dt, c, g):  # pra
     h11 = th * th * (th - 1.0)
     ytry = V[YTRY]
     for j in range(ytry.shape[0]):
-        ytry[j] = (
-            h00 * V[Y, j] + h10 * dt * V[K0, j] + h01 * V[YNEW, j] + h11 * dt * V[K_ + _NS, j]
-        )
+        ytry[j] = h00 * V[Y, j] + h10 * dt * V[K0, j] + h01 * V[YNEW, j] + h11 * dt * V[K_ + _NS, j]
     _input_at(U, S, tc + c)
     _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc + c, ytry, g)
 
 
 @njit(cache=True)
-def _crossing_root(sw, sp, rhs, grad, q, mode, S, U, V, G, E, tc, dt, idx, a, fa, fb):  # pragma: no cover
+def _crossing_root(
+    sw, sp, rhs, grad, q, mode, S, U, V, G, E, tc, dt, idx, a, fa, fb
+):  # pragma: no cover - compiled
     """Time c in (a, dt) where event value ``idx`` crosses zero, given its values
     ``fa`` at tc + a and ``fb`` at tc + dt (of opposite signs).
 
@@ -363,7 +367,9 @@ def _side_event(
 
 
 @njit(cache=True)
-def _first_event(sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, tc, dt, fresh):  # pragma: no cover
+def _first_event(
+    sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, tc, dt, fresh
+):  # pragma: no cover - compiled
     """The first event inside the step ``(tau, found, start)``: the step should end at
     ``tau`` on event value ``found`` (-1: none), or event value ``start`` happens at
     its start (-1: none).
@@ -479,13 +485,13 @@ def _event(rhs, grad, q, mode, sw_info, S, U, V, G, k, tc, st, log):  # pragma: 
     _input_rate(U, S, tc)
     status = OK
     if k >= n_sw:
-        l = mode[0]
+        slid = mode[0]
         q[mode[1]] = -1.0 if k == n_sw else 1.0
         mode[0] = -1
         mode[1] = -1
-        _log(log, st, tc, l, -1.0)
-        st[S_FRESH] = l
-        st[S_ERR_K] = l
+        _log(log, st, tc, slid, -1.0)
+        st[S_FRESH] = slid
+        st[S_ERR_K] = slid
     elif sw_info[k, 0] >= 0:
         status = _on_surface(rhs, grad, q, mode, sw_info, U, V, G, k, tc, y, st, log)
         st[S_FRESH] = k
@@ -495,8 +501,8 @@ def _event(rhs, grad, q, mode, sw_info, S, U, V, G, k, tc, st, log):  # pragma: 
 
 
 @njit(cache=True)
-def _project(sw, sp, grad, q, l, t, y, u, g, G):  # pragma: no cover - compiled
-    """One Newton step back onto the surface g_l = 0 along dg_l/dx (exact for a
+def _project(sw, sp, grad, q, k, t, y, u, g, G):  # pragma: no cover - compiled
+    """One Newton step back onto the surface g_k = 0 along dg_k/dx (exact for a
     surface linear in x): the projection of Hairer, Lubich and Wanner, *Geometric
     Numerical Integration*, 2nd ed., sec. IV.4."""
     nx = y.shape[0]
@@ -504,11 +510,11 @@ def _project(sw, sp, grad, q, l, t, y, u, g, G):  # pragma: no cover - compiled
     grad(t, y, u, q, G)
     nrm = 0.0
     for i in range(nx):
-        nrm += G[l, i] * G[l, i]
+        nrm += G[k, i] * G[k, i]
     if nrm > 0.0:
-        c = g[l] / nrm
+        c = g[k] / nrm
         for i in range(nx):
-            y[i] -= c * G[l, i]
+            y[i] -= c * G[k, i]
 
 
 # ------------------------------------------------------------------ the steps
@@ -537,7 +543,9 @@ def _error(K, y, ynew, dt, rtol, atol):  # pragma: no cover - compiled
 
 
 @njit(inline="always")
-def _half_steps(rhs, grad, q, mode, S, U, V, G, tc, step, yf, yfm, yfn, Kf, ytmp, u):  # pragma: no cover
+def _half_steps(
+    rhs, grad, q, mode, S, U, V, G, tc, step, yf, yfm, yfn, Kf, ytmp, u
+):  # pragma: no cover - compiled
     """The certifying run: the same step as two half steps from the fine state yf
     (V[YF]), with the same field (branch or sliding vector) as the main run."""
     half = 0.5 * step
@@ -661,7 +669,9 @@ def _new_step(err, step, dt_free, rejected):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _accept(sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log):  # pragma: no cover
+def _accept(
+    sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log
+):  # pragma: no cover - compiled
     """After an accepted step to tc (V[Y] the new state, K[0] its first stage): back
     onto the surface slid on, then the event the step ended on (if any), the last
     kink located noted for messages. Returns a status."""
@@ -772,7 +782,9 @@ def _begin(V, X, restart, n, tc, st):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _begin_jumps(rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, tc, st, log):  # pragma: no cover
+def _begin_jumps(
+    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, tc, st, log
+):  # pragma: no cover - compiled
     """The sides of the jumps at an interval's start: at the first interval, or where
     the input moved a surface. Returns a status."""
     _input_at(U, S, tc)

@@ -609,4 +609,3 @@ def _nodes(signal: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         )
     sample_node = np.flatnonzero(order < t.shape[0])
     return nodes, sample_node
-

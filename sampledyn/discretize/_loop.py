@@ -121,8 +121,8 @@ def _loop(
 
 
 def _in_slices(
-    args: tuple, delay: bool, n: int, rtol: float, atol: float, dt: float, steps: Any,
-    diff: Any, tail: tuple,
+    args: Any, delay: bool, n: int, rtol: float, atol: float, dt: float, steps: Any,
+    diff: Any, tail: Any,
 ) -> tuple[int, float, int]:  # fmt: skip
     """The compiled loop of a LinearLaw over samples 0..n-1, in slices of about 0.05 s
     each, so that Ctrl-C and SIGTERM (which act in Python) stop it within a second;
@@ -133,8 +133,9 @@ def _in_slices(
     while start < n and status == 0:
         stop = min(n, start + size)
         began = time.perf_counter()
-        status, dt, reached = _loop(*args, True, delay, start, stop, rtol, atol, dt, steps, diff,
-                                    *tail)  # fmt: skip
+        loop: Any = _loop
+        status, dt, reached = loop(*args, True, delay, start, stop, rtol, atol, dt, steps, diff,
+                                   *tail)  # fmt: skip
         rate = (stop - start) / max(time.perf_counter() - began, 1e-6)
         size = int(min(max(0.05 * rate, 1), 1 << 20))
         start = stop

@@ -27,8 +27,8 @@ from .. import estimate as _estimate  # noqa: F401
 from .._trajectory import Trajectory
 from ..methods import get_method, uniform_step
 from ..models import (
-    jump_surface_at,
     JacobianUnavailableError,
+    jump_surface_at,
     kernel_import_line,
     load_generated_module,
 )

@@ -389,10 +389,12 @@ class CompiledModel:
         if batch is not None:
             out = in_row_blocks(batch, tt, xx, uu, _params(p), JAC_BLOCK_ROWS)
         else:
-            out = in_row_blocks(
-                lambda *a: _batch_matrix(kernel, *(readonly(v) for v in a), self.nx, cols),
-                tt, xx, uu, p, JAC_BLOCK_ROWS,
-            )  # fmt: skip
+
+            def block(tb: Any, xb: Any, ub: Any, pb: Any) -> np.ndarray:
+                rd = readonly
+                return _batch_matrix(kernel, rd(tb), rd(xb), rd(ub), rd(pb), self.nx, cols)
+
+            out = in_row_blocks(block, tt, xx, uu, p, JAC_BLOCK_ROWS)
         return out[0] if single else out
 
 

@@ -391,9 +391,7 @@ class _Switching:
         m = len(self.names)
         _checked_call(self.kernel, "switching", (m,), args)
         if self.gradient is not None:
-            _checked_call(
-                self.gradient, "switching_jacobian", (m, model.nx + 1 + model.nu), args
-            )
+            _checked_call(self.gradient, "switching_jacobian", (m, model.nx + 1 + model.nu), args)
         if self.jumps:
             q = np.concatenate([model._p, np.ones(len(self.jumps))])
             _checked_call(model._branch, "f", (model.nx,), (*args[:3], q))

@@ -270,17 +270,25 @@ def _kinks(sp: Any, exprs: Sequence[Any], variables: set[Any]) -> tuple[list[Any
 
     for e in exprs:
         for node in sp.preorder_traversal(e):
-            if isinstance(node, sp.Abs | sp.sign | sp.Heaviside):
-                add(node.args[0], not isinstance(node, sp.Abs))
-            elif isinstance(node, sp.Max | sp.Min):
-                args = node.args
-                for i in range(len(args)):
-                    for j in range(i + 1, len(args)):
-                        add(args[i] - args[j], False)
-            elif isinstance(node, sp.Piecewise):
+            if isinstance(node, sp.Piecewise):
                 for _, cond in node.args:
                     relations(cond)
+            else:
+                for g, jump in _node_switching(sp, node):
+                    add(g, jump)
     return list(found), jumps
+
+
+def _node_switching(sp: Any, node: Any) -> list[tuple[Any, bool]]:
+    """(switching function, f jumps across it) of one non-smooth node other than
+    Piecewise: the argument of Abs (a kink), sign and Heaviside (jumps), the pairwise
+    differences of the arguments of Max and Min (kinks)."""
+    if isinstance(node, sp.Abs | sp.sign | sp.Heaviside):
+        return [(node.args[0], not isinstance(node, sp.Abs))]
+    if isinstance(node, sp.Max | sp.Min):
+        a = node.args
+        return [(a[i] - a[j], False) for i in range(len(a)) for j in range(i + 1, len(a))]
+    return []
 
 
 def _branches(sp: Any, e: Any, real: Mapping[Any, Any], sides: Mapping[Any, Any]) -> Any:
