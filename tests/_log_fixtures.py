@@ -206,9 +206,9 @@ def fmt_record(name):
 
 def write_dataflash(log: Path, run: Any) -> tuple[Path, np.ndarray, np.ndarray]:
     """An ArduSub DataFlash log (file ``log``) of ``run``: XKF1 of EKF cores 0 and 1
-    (core 1 wrong, to be ignored) at 10 Hz, IMU at 50 Hz, RCOU at 20 Hz, as
-    ``examples/ardusub_bluerov2_heavy.toml`` expects. Returns (log, the attitude in
-    centidegrees as logged, the NED velocity logged)."""
+    (core 1 wrong, to be ignored) at 10 Hz, IMU at 50 Hz, RCOU at 20 Hz, as a mapping
+    with `channels` 1..8 and `direction` -1 expects (it holds no parameters). Returns
+    (log, the attitude in centidegrees as logged, the NED velocity logged)."""
     _vehicle, traj, c, pwm, _rpm = run
     t_us = 30_000_000 + np.rint(traj.t * 1e6).astype(np.int64)
     att = np.degrees(traj.x[:, 3:6])

@@ -13,7 +13,8 @@ __all__ = ["add_parser"]
 
 
 def _estimating(name: str) -> bool:
-    return bool(registry().get_method(name).estimates_params)
+    reg = registry()
+    return isinstance(reg.get_method(name), reg.Estimator)
 
 
 def _check_estimate(rules: tuple[str, ...]) -> None:
@@ -43,6 +44,7 @@ def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[
         "t_end": float(tr.t[-1]),
         "notes": list(data.notes),
         "time_base": list(result.notes),
+        "left_out": list(result.left_out),
         "norm": args.norm,
         "after": args.after,
         "rows": result.rows,
@@ -83,10 +85,12 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     out = writable_file(args.out, "--out") if args.out else None
 
     from ..experiments.sweep import build_model
-    from ..logs import evaluate_log, read_log
+    from ..logs import evaluate_log, model_for_mapping, read_log
 
     with option("--vehicle"):
         model = build_model(args.vehicle)
+    with option("--mapping"):
+        model = model_for_mapping(model, args.mapping)
     with option("--data"):
         data = read_log(
             args.data,
@@ -97,6 +101,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             unwrap=not args.no_unwrap,
             gaps=args.gaps,
             max_missing=1 if args.max_missing is None else args.max_missing,
+            irregular=args.irregular,
         )
     result = evaluate_log(model, data, [*methods, *estimate], norm=args.norm, after=args.after)
     if out is not None:
@@ -118,6 +123,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(note)
     window = "all samples" if args.after is None else f"t >= {args.after:g} s"
+    if result.left_out:
+        window += f"; without {', '.join(result.left_out)} (not measured)"
     print(f"\n{args.norm} of the one-step local errors (measurement - prediction), {window}:")
     head = (
         f"{'method':8s} {'order':>5s} {'position/angle':>15s} {'velocity':>12s} {'all':>12s} "
@@ -148,7 +155,7 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         "evaluate",
         parents=parents,
         help="local errors of sampled-data models on a real log (CSV, Parquet, ROS bag, "
-        "ArduSub DataFlash)",
+        "ArduSub DataFlash, MAVLink tlog, BlueOS MCAP)",
         description=(
             "Read a vehicle log (columns t, the 12 states and the thruster rpm, units in "
             "the header like x[m], phi[deg], n1[rpm], or a --mapping file), validate it "
@@ -161,7 +168,8 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     ev.add_argument(
         "--data",
         required=True,
-        help="log: .csv, .parquet, ROS 2 bag directory, .db3, .mcap, ROS 1 .bag, ArduSub .bin",
+        help="log: .csv, .parquet, ROS 2 bag (directory, .db3, .mcap), ROS 1 .bag, ArduSub "
+        ".bin, MAVLink .tlog, BlueOS .mcap (docs/logs.md)",
     )
     ev.add_argument(
         "--vehicle", required=True, help="built-in vehicle name or vehicle TOML file (or auv_like)"
@@ -217,6 +225,12 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         default=None,
         help="TOML file: column names and units (CSV/Parquet), topics and frames (ROS bag), "
         "messages and thruster curve (ArduSub); see docs/logs.md",
+    )
+    ev.add_argument(
+        "--irregular",
+        action="store_true",
+        help="accept a log whose steps are no whole numbers of one period (refused by "
+        "default): every rule predicts on the logged stamps, the step ratios are printed",
     )
     ev.add_argument("--no-unwrap", action="store_true", help="do not unwrap angles")
     add_format(ev, "the error table")

@@ -288,7 +288,7 @@ def _discrete_studies(args: argparse.Namespace) -> int:
         kwargs["transient" if closed else "after"] = args.after
     if args.methods:
         kwargs["methods"] = names(args.methods)
-        _check_methods(tuple(m for m in kwargs["methods"] if m != "ZOH"))
+        _check_methods(kwargs["methods"])
     if args.vehicle:
         from ..models import load_vehicle
 

@@ -220,30 +220,50 @@ def casadi_rhs(model: Any) -> Any:
     return ca.Function("f", [x, u], [_rhs_expression(model, x, u)], ["x", "u"], ["xdot"])
 
 
+class _Solvers:
+    """What a rule's vector step may ask of CasADi: the root of an implicit stage
+    (Newton ``rootfinder``, MX) and the exact flow over one interval (``integrator``,
+    CVODES)."""
+
+    def __init__(self, ca: Any, dm: Any, f: Any, z: Any, u: Any) -> None:
+        self.ca, self.dm, self.f, self.z, self.u = ca, dm, f, z, u
+
+    def implicit(self, residual: Any, guess: Any) -> Any:
+        ca, nx = self.ca, self.dm.nx
+        x1 = ca.MX.sym("x1", nx)
+        g = ca.Function("residual", [x1, self.z, self.u], [residual(x1)])
+        solver = ca.rootfinder(
+            f"{self.dm.method.name}_newton", "newton", g, {"abstol": 1e-14, "max_iter": 50}
+        )
+        return solver(guess, self.z, self.u)
+
+    def flow(self, x0: Any, u: Any, h: float) -> Any:
+        ca, dm = self.ca, self.dm
+        x = ca.MX.sym("x", dm.nx)
+        p = ca.MX.sym("p", dm.nu)
+        tol = {"abstol": 1e-12, "reltol": 1e-12}
+        ode = {"x": x, "p": p, "ode": self.f(x, p)}
+        run = ca.integrator(f"{dm.method.name}_flow", "cvodes", ode, 0.0, float(h), tol)
+        return run(x0=x0, p=u)["xf"]
+
+
 def discrete_function(dm: Any) -> Any:
-    """``casadi.Function`` F(z, u) -> z+ of a DiscreteModel, from the rule's
-    ``step_blocks`` on the model's CasADi f. Explicit rules give an SX function;
-    Tustin's implicit step is a Newton ``rootfinder`` (MX), exact to its tolerance
-    (1e-14) and differentiable by the implicit function theorem."""
+    """``casadi.Function`` F(z, u) -> z+ of a DiscreteModel, from the rule's step
+    (``discrete_step.blocks``) on the model's CasADi f. Explicit rules give an SX
+    function; Tustin's implicit step is a Newton ``rootfinder`` (MX), exact to its
+    tolerance (1e-14) and differentiable by the implicit function theorem; ZOH's exact
+    flow a CVODES ``integrator`` (MX, rtol = atol = 1e-12)."""
     ca = _casadi()
     f = casadi_rhs(dm.model)
     nx, nu, core = dm.nx, dm.nu, len(dm.layout) * dm.nx
-    implicit_rule = "jac(" in dm.method.step_source()
-    sym = ca.MX.sym if implicit_rule else ca.SX.sym
+    symbolic_only = dm.step_data.kernels == frozenset({"rhs"})
+    sym = ca.SX.sym if symbolic_only else ca.MX.sym
     z = sym("z", dm.nz)
     u = sym("u", nu)
     blocks = [z[b * nx : (b + 1) * nx] for b in range(len(dm.layout))]
     applied = z[core:] if dm.delay else u
-
-    def implicit(residual: Any, guess: Any) -> Any:
-        x1 = ca.MX.sym("x1", nx)
-        g = ca.Function("residual", [x1, z, u], [residual(x1)])
-        solver = ca.rootfinder(
-            f"{dm.method.name}_newton", "newton", g, {"abstol": 1e-14, "max_iter": 50}
-        )
-        return solver(guess, z, u)
-
-    new = dm.method.step_blocks(lambda t, xb, ub: f(xb, ub), 0.0, blocks, applied, dm.h, implicit)
+    solvers = _Solvers(ca, dm, f, z, u)
+    new = dm.step_data.blocks(lambda t, xb, ub: f(xb, ub), 0.0, blocks, applied, dm.h, solvers)
     parts = list(new) + ([u] if dm.delay else [])
     name = f"{dm.method.name}_h{dm.h:g}".replace(".", "p")
     return ca.Function(name, [z, u], [ca.vertcat(*parts)], ["z", "u"], ["z_next"])

@@ -57,6 +57,50 @@ _LOOP_SIG = types.Tuple((types.int64, _F, types.int64))(
 )  # fmt: skip
 
 
+@njit(inline="always")
+def _law(n, t, Y, U, cmd, drhs, dp, K, z_ref, u_ref, kinds, lags, u_lo, u_hi, delay, z, fb):
+    """cmd[n] of the linear law: z from the measured history as the design model's
+    layout says (a past state, or f of the design model there with the input applied),
+    the previous command with ``delay``; ``u_ref`` until the history is complete."""
+    nx = Y.shape[1]
+    nu = cmd.shape[1]
+    nb = kinds.shape[0]
+    nz = K.shape[1]
+    hist = 0
+    for b in range(nb):
+        hist = max(hist, lags[b] + 1)
+    if n < hist - 1 or (delay and n < 1):
+        for i in range(nu):
+            cmd[n, i] = min(max(u_ref[n, i], u_lo[i]), u_hi[i])
+        return
+    for b in range(nb):
+        k = n - lags[b]
+        if kinds[b] == 0:
+            for j in range(nx):
+                z[b * nx + j] = Y[k, j]
+        else:
+            drhs(t[k], Y[k], U[k], dp, fb)
+            for j in range(nx):
+                z[b * nx + j] = fb[j]
+    if delay:
+        for j in range(nu):
+            z[nb * nx + j] = cmd[n - 1, j]
+    for i in range(nu):
+        v = u_ref[n, i]
+        for j in range(nz):
+            v += K[i, j] * (z[j] - z_ref[n, j])
+        cmd[n, i] = min(max(v, u_lo[i]), u_hi[i])
+
+
+@njit(inline="always")
+def _outside(X, n, x_lo, x_hi):
+    """True if sample n left the envelope [x_lo, x_hi]."""
+    for j in range(X.shape[1]):
+        if not x_lo[j] <= X[n, j] <= x_hi[j]:
+            return True
+    return False
+
+
 @njit(_LOOP_SIG, cache=True)
 def _loop(
     rhs, grad, p, sw, sp, sw_io, drhs, dp, t, X, noise, Y, cmd, U,
@@ -70,38 +114,13 @@ def _loop(
     """
     nx = X.shape[1]
     nu = U.shape[1]
-    nb = kinds.shape[0]
-    hist = 0
-    for b in range(nb):
-        hist = max(hist, lags[b] + 1)
-    nz = K.shape[1]
-    z = np.empty(nz)
+    z = np.empty(K.shape[1])
     fb = np.empty(nx)
     for n in range(n_start, n_stop):
         for j in range(nx):
             Y[n, j] = X[n, j] + noise[n, j]
         if law_on:
-            if n >= hist - 1 and (not delay or n >= 1):
-                for b in range(nb):
-                    k = n - lags[b]
-                    if kinds[b] == 0:
-                        for j in range(nx):
-                            z[b * nx + j] = Y[k, j]
-                    else:
-                        drhs(t[k], Y[k], U[k], dp, fb)
-                        for j in range(nx):
-                            z[b * nx + j] = fb[j]
-                if delay:
-                    for j in range(nu):
-                        z[nb * nx + j] = cmd[n - 1, j]
-                for i in range(nu):
-                    v = u_ref[n, i]
-                    for j in range(nz):
-                        v += K[i, j] * (z[j] - z_ref[n, j])
-                    cmd[n, i] = min(max(v, u_lo[i]), u_hi[i])
-            else:
-                for i in range(nu):
-                    cmd[n, i] = min(max(u_ref[n, i], u_lo[i]), u_hi[i])
+            _law(n, t, Y, U, cmd, drhs, dp, K, z_ref, u_ref, kinds, lags, u_lo, u_hi, delay, z, fb)
         if n + 1 >= X.shape[0]:
             break
         for i in range(nu):
@@ -114,9 +133,8 @@ def _loop(
             return status, dt, n
         if math.isnan(X[n + 1, 0]):
             return 2, dt, n
-        for j in range(nx):
-            if not x_lo[j] <= X[n + 1, j] <= x_hi[j]:
-                return 3, dt, n + 1
+        if _outside(X, n + 1, x_lo, x_hi):
+            return 3, dt, n + 1
     return 0, dt, n_stop
 
 

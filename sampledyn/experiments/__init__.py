@@ -6,9 +6,6 @@ and the controller studies (:func:`run_closed_loop_study`,
 :func:`run_multistep_study`, whose cells are of the kinds ``closed_loop`` and
 ``multistep`` registered here)."""
 
-# The estimation layer registers its rules (Ee, ABe<s>) into the method registry; the
-# studies iterate the whole registry.
-from .. import estimate as _estimate  # noqa: F401
 from ._advise import DEFAULT_METHODS as DEFAULT_METHODS
 from ._advise import TIE as TIE
 from ._advise import Advice as Advice

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ERROR_NORMS
-from ..methods import families, get_method
+from ..methods import Predictor, families, get_method, get_predictor
 from ..models import AUVLike
 from .sweep import SweepConfig, check_time_grid, fastest_time_constant, run_study
 
@@ -37,16 +37,25 @@ def _multistep(fam: Any) -> bool:
     return fam.ordered and any(get_method(n).history > 1 for n in fam.names())
 
 
+def _predictors(fam: Any) -> bool:
+    """A family whose rules predict on sampled data (not ZOH, a discrete-time system)."""
+    return isinstance(get_method(fam.names()[0]), Predictor)
+
+
 def fig2_methods() -> tuple[str, ...]:
-    """Fig. 2's rules: every registered multistep family (AB_s, ABu_s, ABe_s, ...),
-    orders 1 to the family's default largest one, in registration order."""
-    return tuple(n for fam in families() if _multistep(fam) for n in fam.names())
+    """Fig. 2's rules: every registered multistep family of predictors (AB_s, ABu_s,
+    ABe_s, ...), orders 1 to the family's default largest one, in registration order."""
+    return tuple(
+        n for fam in families() if _predictors(fam) and _multistep(fam) for n in fam.names()
+    )
 
 
 def fig3_methods() -> tuple[str, ...]:
-    """Fig. 3's rules: every registered single rule (E, T, Ee, ...) and every one-step
-    family of orders (RK_s), in registration order."""
-    return tuple(n for fam in families() if not _multistep(fam) for n in fam.names())
+    """Fig. 3's rules: every registered single predictor (E, T, Ee, ...) and every
+    one-step family of orders (RK_s), in registration order."""
+    return tuple(
+        n for fam in families() if _predictors(fam) and not _multistep(fam) for n in fam.names()
+    )
 
 
 @dataclass(frozen=True)
@@ -166,7 +175,7 @@ def run_auv_study(
         ratio = int(round(tconf["input"]["hold"] / study.h))
         key = (c["traj_key"], c["method"])
         if key not in rows:
-            method = get_method(c["method"])
+            method = get_predictor(c["method"])
             rows[key] = {"hold_ratio": ratio, "method": method.name, "order": int(method.order)}
         row = rows[key]
         column = MASKED_NORMS.get(c["norm"], c["norm"])

@@ -9,8 +9,9 @@ the trim for a depth / heading / surge hold, and run against the exact plant
 saturating at n_max inside the plant) with the paper's measurement noise. Measured:
 the tracking residual set (95th and 100th percentile of |depth|, |heading| and |surge|
 error after the transient) and the control effort. A design on the exact zero-order
-hold linearisation (``ZOH``: the matrix exponential, i.e. a perfect one-step model of
-the linearised plant) is the reference row.
+hold (the registered rule ``ZOH``, :class:`sampledyn.methods.ExactHold`: its
+linearisation is the matrix exponential, a perfect one-step model of the linearised
+plant) is the reference row.
 
 A run that leaves the envelope (roll or pitch beyond 80 deg, a velocity beyond 5 m/s or
 5 rad/s, depth 50 m off) stops there and is reported as diverged: such a loop tumbles
@@ -71,6 +72,9 @@ __all__ = [
 ]
 
 CLOSED_LOOP_METHODS = ("E", "AB2", "AB4", "ABu4", "RK4", "T")
+# The reference design, and the rule whose loop's motion the one-step errors are
+# measured on: the exact zero-order hold.
+REFERENCE = "ZOH"
 # Tracked outputs: state index, name, unit.
 TRACKED = ((2, "depth", "m"), (5, "heading", "rad"), (6, "surge", "m/s"))
 # States kept in the design (all but the horizontal positions x, y).
@@ -94,7 +98,8 @@ class ClosedLoopStudy:
     vehicles : tuple of str
         Built-in vehicle names or vehicle files.
     methods : tuple of str
-        Rules the LQR is designed on; "ZOH" adds the exact zero-order-hold design.
+        Rules the LQR is designed on (discrete-time systems); "ZOH" is the design on
+        the exact zero-order hold.
     h_values : tuple of float
         Sampling periods (s).
     noise_pairs : tuple of (eta %, v %)
@@ -121,7 +126,7 @@ class ClosedLoopStudy:
     """
 
     vehicles: tuple[str, ...] = ("rexrov", "bluerov2_heavy")
-    methods: tuple[str, ...] = ("ZOH", *CLOSED_LOOP_METHODS)
+    methods: tuple[str, ...] = (REFERENCE, *CLOSED_LOOP_METHODS)
     h_values: tuple[float, ...] = (0.1, 0.5)
     noise_pairs: tuple[tuple[float, float], ...] = ((0, 0), (2, 2), (10, 10), (20, 20))
     seeds: int = 5
@@ -140,8 +145,7 @@ class ClosedLoopStudy:
     def __post_init__(self) -> None:
         check_run(self.T, self.transient, "transient", self.seeds, self.base_seed)
         for name in self.methods:
-            if name != "ZOH":
-                check_rule(name)  # the design needs the rule's discrete-time model
+            check_rule(name)  # the design needs the rule's discrete-time model
 
 
 def check_run(T: Any, after: Any, after_name: str, seeds: Any, base_seed: Any) -> None:
@@ -222,20 +226,6 @@ def _dlqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndar
     return np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
 
 
-def _zoh(vehicle: Any, x: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact zero-order-hold discretisation of the linearisation (Van Loan's block
-    exponential)."""
-    from scipy.linalg import expm
-
-    A = vehicle.jacobian(0.0, x, u)
-    B = vehicle.input_jacobian(0.0, x, u)
-    n, m = B.shape
-    M = np.zeros((n + m, n + m))
-    M[:n, :n], M[:n, n:] = A, B
-    E = expm(M * h)
-    return E[:n, :n], E[:n, n:]
-
-
 @dataclass(frozen=True)
 class Design:
     """One LQR design: the law, the closed-loop spectral radius on its own model
@@ -289,24 +279,16 @@ def design_lqr(
     vehicle: Any, method: str, h: float, x_trim: np.ndarray, u_trim: np.ndarray, *, delay=False
 ) -> Design:
     """The discrete LQR of the hold designed on ``method``'s discrete-time model of
-    ``vehicle`` at h ("ZOH": on the exact zero-order-hold linearisation, state x).
+    ``vehicle`` at h ("ZOH": on the exact zero-order hold, whose linearisation is the
+    matrix exponential).
 
     u_n = u* - K (z_n - z*): z* is the model's steady state at the trim (x*, u*), K the
     LQR gain of the reduced linearisation (x, y dropped) with Bryson weights on the
     current state and the thrusters (the same Q, R for every rule).
     """
-    d = discretize(vehicle, "RK4" if method == "ZOH" else method, h, delay=delay)
+    d = discretize(vehicle, method, h, delay=delay)
     z_star = d.steady_state(x_trim, u_trim)
-    if method == "ZOH":
-        Az, Bz = _zoh(vehicle, x_trim, u_trim, h)
-        if delay:
-            A = np.zeros((d.nz, d.nz))
-            A[:12, :12], A[:12, 12:] = Az, Bz
-            B = np.zeros((d.nz, d.nu))
-            B[12:] = np.eye(d.nu)
-            Az, Bz = A, B
-    else:
-        Az, Bz = d.linearize(z_star, u_trim)
+    Az, Bz = d.linearize(z_star, u_trim)
     keep = _reduced_indices(d)
     A, B = Az[np.ix_(keep, keep)], Bz[keep]
     Q, R = _weights(d, vehicle)
@@ -317,7 +299,8 @@ def design_lqr(
     law = LinearLaw(d, gain, z_star, u_trim)
     F = vehicle.jacobian(0.0, x_trim, u_trim)
     G = vehicle.input_jacobian(0.0, x_trim, u_trim)
-    rho_true = _true_radius(law, *_zoh(vehicle, x_trim, u_trim, h), F, G)
+    exact = discretize(vehicle, REFERENCE, h).linearize(x_trim, u_trim)
+    rho_true = _true_radius(law, *exact, F, G)
     return Design(method, float(h), law, rho, rho_true)
 
 
@@ -370,15 +353,15 @@ def _one_step_errors(vehicle: Any, h: float, setup: Any) -> dict[str, float]:
     samples of the noise-free loop of the ZOH design (the same data for every rule)."""
     data = setup.data
     x_trim, u_trim = data["x_trim"], data["u_trim"]
-    ref = design_lqr(vehicle, "ZOH", h, x_trim, u_trim)
+    ref = design_lqr(vehicle, REFERENCE, h, x_trim, u_trim)
     run = run_loop(
         vehicle, ref.law, setup.after, h, data["x0"], envelope=_envelope(x_trim),
         rtol=setup.rtol, atol=setup.rtol,
     )  # fmt: skip
     out = {}
     for method in data["methods"]:
-        if method == "ZOH":
-            continue
+        if get_method(method).order is None:
+            continue  # an exact map (ZOH) has no one-step model error
         err = discretize(vehicle, method, h).rollout(run.exact, 1) - run.exact.x
         err = err[np.isfinite(err).all(axis=1), 2:]
         out[method] = float(np.sqrt(np.mean(np.sum(err * err, axis=1))))
@@ -442,11 +425,10 @@ class ClosedLoopCells(CellKind):
         }
 
     def check_method(self, name: str) -> None:
-        if name != "ZOH":
-            check_rule(name)
+        check_rule(name)
 
     def method_order(self, name: str) -> int | None:
-        return None if name == "ZOH" else int(get_method(name).order)
+        return get_method(name).order
 
     def measures(self, config: Any) -> tuple[str, ...]:
         return ("tracking",)
@@ -524,8 +506,7 @@ class ClosedLoopCells(CellKind):
                         }  # fmt: skip
                         try:
                             if method not in laws:
-                                rule = "RK4" if method == "ZOH" else method
-                                model = discretize(vehicle, rule, h, delay=data["delay"])
+                                model = discretize(vehicle, method, h, delay=data["delay"])
                                 laws[method] = LinearLaw(
                                     model, design["gain"], design["z_ref"], data["u_trim"]
                                 )
@@ -551,11 +532,10 @@ class ClosedLoopCells(CellKind):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                ref = design_lqr(setup.model, "ZOH", h, data["x_trim"], data["u_trim"])
+                ref = design_lqr(setup.model, REFERENCE, h, data["x_trim"], data["u_trim"])
                 run_loop(setup.model, ref.law, h, h, data["x0"], rtol=setup.rtol)
                 for method in data["methods"]:
-                    if method != "ZOH":
-                        discretize(setup.model, method, h, delay=data["delay"])
+                    discretize(setup.model, method, h, delay=data["delay"])
             except (*CELL_ERRORS, NotImplementedError):
                 pass  # a real failure is reported by the task that meets it
 

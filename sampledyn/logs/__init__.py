@@ -1,6 +1,8 @@
-"""Real vehicle logs: read and validate a CSV/Parquet log, a ROS bag or an ArduSub
-DataFlash log (time as logged, dropped records, units, frames, NaN, angle
-wrap-around) and measure the local errors of sampled-data models on it."""
+"""Real vehicle logs: read and validate a CSV/Parquet log, a ROS bag, an ArduSub
+DataFlash log, a MAVLink telemetry log (.tlog) or a BlueOS MCAP log (time as logged,
+dropped records, units, frames, NaN, angle wrap-around, the autopilot's own state)
+and measure the local errors of sampled-data models on it. The formats are one
+table, :data:`LOG_FORMATS`."""
 
 from __future__ import annotations
 
@@ -13,6 +15,11 @@ from typing import TYPE_CHECKING, Any
 _EXPORTS: dict[str, str] = {
     "CONVERSIONS": "._units",
     "GAP_POLICIES": "._time",
+    "LOG_FORMATS": "._formats",
+    "LogFormat": "._formats",
+    "detect_format": "._formats",
+    "model_for_mapping": "._mapping",
+    "t200_deadband": "._t200",
     "NAN_POLICIES": "._read",
     "T200_VOLTAGES": "._t200",
     "TIME_TOLERANCE": "._read",
@@ -38,6 +45,10 @@ if TYPE_CHECKING:
     from ._evaluate import MAX_H_RATE as MAX_H_RATE
     from ._evaluate import LogEvaluation as LogEvaluation
     from ._evaluate import evaluate_log as evaluate_log
+    from ._formats import LOG_FORMATS as LOG_FORMATS
+    from ._formats import LogFormat as LogFormat
+    from ._formats import detect_format as detect_format
+    from ._mapping import model_for_mapping as model_for_mapping
     from ._open import read_log as read_log
     from ._read import NAN_POLICIES as NAN_POLICIES
     from ._read import TIME_TOLERANCE as TIME_TOLERANCE
@@ -47,6 +58,7 @@ if TYPE_CHECKING:
     from ._synthetic import synthetic_log as synthetic_log
     from ._synthetic import write_synthetic_log as write_synthetic_log
     from ._t200 import T200_VOLTAGES as T200_VOLTAGES
+    from ._t200 import t200_deadband as t200_deadband
     from ._t200 import t200_rpm as t200_rpm
     from ._time import GAP_POLICIES as GAP_POLICIES
     from ._time import Clock as Clock

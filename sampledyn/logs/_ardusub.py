@@ -1,20 +1,25 @@
 """ArduSub DataFlash logs (``.bin``, through ``pymavlink``; ``pip install
 'sampledyn[ardusub]'``).
 
-A mapping file (TOML) names the messages and the thruster outputs::
+A mapping file (TOML) names the messages; every key has a default::
 
     [ardusub]
     states = "XKF1"   # EKF3 state (NKF1 for EKF2): attitude, NED velocity and position
-    core = 0          # EKF core (field C)
+    core = 0          # EKF core (field C; logs without it: one core, read as 0)
     rates = "IMU"     # body rates GyrX, GyrY, GyrZ
-    imu = 0           # IMU instance (field I)
+    imu = 0           # IMU instance (field I; logs without it: read as 0)
     outputs = "RCOU"  # servo outputs C1..C14 (PWM, us)
+    battery = "BAT"   # battery voltage Volt (V), instance 0
+    status = "XKF4"   # estimator status SS (NKF4 for EKF2), same core
+    armed_only = true # use the armed samples only (ARM / EV records)
+    estimator = "check"  # leave states without a valid estimate out of the errors
 
     [ardusub.thrusters]
-    channels = [1, 2, 3, 4, 5, 6, 7, 8]  # RCOU channel of each model input (n1..n8)
-    unit = "pwm"                          # through the T200 table (or rpm, rps, rad/s)
-    direction = [-1, -1, -1, -1, -1, -1, -1, -1]  # sign per model input
-    voltage = 16                          # T200 table supply (V)
+    unit = "pwm"          # through the T200 table
+    voltage = "logged"    # the BAT voltage at each sample (or a supply in V)
+    # frame, channels and direction come from the log's FRAME_CONFIG, SERVOn_FUNCTION
+    # and MOT_n_DIRECTION parameters; `frame = "vectored"`, `channels = [...]` and
+    # `direction = [...]` override them.
 
 Frames and units as ArduPilot logs them (ArduPilot log message documentation,
 ``LogStructure.h`` of AP_NavEKF3 and AP_InertialSensor): XKF1 Roll, Pitch, Yaw in deg
@@ -24,7 +29,8 @@ frame (raw gyro, the EKF's bias estimate not removed). Converted: eta = (PN, PE,
 Roll, Pitch, Yaw) in m and rad; the body velocity (u, v, w) = R(phi, theta, psi)^T
 (VN, VE, VD) (Fossen 2011, eq. (2.19)); (p, q, r) = the IMU sample nearest each state
 stamp. Time: each message's TimeUS (us since boot, an integer counter). Sampling rule:
-:mod:`._streams`.
+:mod:`._streams`; arming, estimator, depth and thrusters: :mod:`._autopilot`. Events
+(EV) 10 and 11 are ARMED and DISARMED; ARM records ArmState.
 """
 
 from __future__ import annotations
@@ -36,29 +42,23 @@ from typing import Any
 
 import numpy as np
 
+from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
-from ._read import LogData, log_from_frame
-from ._streams import (
-    SAMPLING_RULE,
-    drop_before_first_command,
-    hold_last,
-    mapping_section,
-    nearest,
-    thruster_options,
-    thruster_rpm,
-    vehicle_frame,
-)
+from ._read import LogData
+from ._streams import mapping_section, nearest
 from ._units import LogFormatError
 
 __all__ = ["read_dataflash"]
 
-_KEYS = ("states", "core", "rates", "imu", "outputs", "thrusters")
+_KEYS = ("states", "core", "rates", "imu", "outputs", "battery", "status", *AUTOPILOT_KEYS)
 _STATE_FIELDS = ("Roll", "Pitch", "Yaw", "VN", "VE", "VD", "PN", "PE", "PD")
 _RATE_FIELDS = ("GyrX", "GyrY", "GyrZ")
+# instance field of each message type that has one (older logs lack it: instance 0)
+_INSTANCE = {"XKF1": "C", "NKF1": "C", "XKF4": "C", "NKF4": "C", "IMU": "I", "BAT": "Instance"}
+_ARMED_EVENTS = {10: 1, 11: 0}  # LogEvent ARMED, DISARMED
 
 
-def _read_messages(path: Path, types: dict[str, tuple[str, ...]], src: str) -> dict[str, Any]:
-    """type -> (TimeUS array, instance array or None, fields (N, k)) for each type."""
+def _open(path: Path, src: str) -> Any:
     try:
         from pymavlink import DFReader
     except ImportError as exc:  # pragma: no cover - depends on the installation
@@ -67,105 +67,177 @@ def _read_messages(path: Path, types: dict[str, tuple[str, ...]], src: str) -> d
             "pip install 'sampledyn[ardusub]'."
         ) from exc
     try:
-        log = DFReader.DFReader_binary(str(path), zero_time_base=False)
+        return DFReader.DFReader_binary(str(path), zero_time_base=False)
     except (struct.error, ValueError, IndexError, KeyError) as exc:
         raise LogFormatError("data", f"{src}: not a readable DataFlash log: {exc}") from exc
-    rows: dict[str, list[tuple[Any, ...]]] = {t: [] for t in types}
-    instance = {"XKF1": "C", "NKF1": "C", "IMU": "I"}
-    try:
-        while True:
-            m = log.recv_match(type=list(types))
-            if m is None:
-                break
+
+
+class _Messages:
+    """The records of the wanted types: per type (TimeUS, instance, fields (n, k))."""
+
+    def __init__(self, path: Path, wanted: dict[str, tuple[str, ...]], src: str) -> None:
+        self.src = src
+        self.wanted = wanted
+        self.rows: dict[str, list[tuple[Any, ...]]] = {t: [] for t in wanted}
+        self.params: dict[str, float] = {}
+        self.no_instance: set[str] = set()
+        log = _open(path, src)
+        try:
+            self._read(log)
+        except (struct.error, ValueError, IndexError, KeyError) as exc:
+            raise LogFormatError("data", f"{src}: not a readable DataFlash log: {exc}") from exc
+        finally:
+            log.close()
+        self.have = sorted(log.name_to_id) if hasattr(log, "name_to_id") else []
+
+    def _read(self, log: Any) -> None:
+        types = [*self.wanted, "PARM"]
+        while (m := log.recv_match(type=types)) is not None:
             kind = m.get_type()
-            inst = getattr(m, instance[kind]) if kind in instance else -1
-            rows[kind].append(
-                (int(m.TimeUS), int(inst), *(float(getattr(m, f)) for f in types[kind]))
-            )
-    except AttributeError as exc:
-        raise LogFormatError(
-            "mapping", f"{src}: a message lacks a field the mapping needs: {exc}"
-        ) from exc
-    except (struct.error, ValueError, IndexError, KeyError) as exc:
-        raise LogFormatError("data", f"{src}: not a readable DataFlash log: {exc}") from exc
-    finally:
-        log.close()
-    out = {}
-    have = sorted(log.name_to_id) if hasattr(log, "name_to_id") else []
-    for kind, got in rows.items():
-        if not got:
-            close = difflib.get_close_matches(kind, have, n=1)
+            if kind == "PARM":
+                self.params[str(m.Name)] = float(m.Value)
+                continue
+            self.rows[kind].append(self._record(m, kind))
+
+    def _record(self, m: Any, kind: str) -> tuple[Any, ...]:
+        fields = self.wanted[kind]
+        names = m.get_fieldnames()
+        missing = [f for f in ("TimeUS", *fields) if f not in names]
+        if missing:
+            row = len(self.rows[kind])
+            when = f" (TimeUS {int(m.TimeUS)} us)" if "TimeUS" in names else ""
             raise LogFormatError(
                 "mapping",
-                f"{src}: the log has no {kind!r} message"
-                + (f" (did you mean {close[0]!r}?)" if close else "")
-                + (f"; it has {', '.join(have)}." if have else "."),
+                f"{self.src}: {kind} record {row + 1}{when} has no field {missing[0]!r}, which "
+                f"the mapping's message needs; its fields are {', '.join(names)}. Name another "
+                "message in the mapping file ([ardusub] states, rates, outputs, battery, status).",
             )
-        a = np.array(got)
-        out[kind] = (a[:, 0].astype(np.int64), a[:, 1].astype(np.int64), a[:, 2:])
-    return out
+        inst_field = _INSTANCE.get(kind)
+        if inst_field is not None and inst_field not in names:
+            self.no_instance.add(f"{kind}.{inst_field}")
+            inst = 0
+        else:
+            inst = int(getattr(m, inst_field)) if inst_field else 0
+        return (int(m.TimeUS), inst, *(float(getattr(m, f)) for f in fields))
+
+    def get(self, kind: str, instance: int | None = None, required: bool = True) -> Any:
+        """(TimeUS, fields) of ``kind`` (of ``instance``), or None where optional and absent."""
+        got = self.rows.get(kind, [])
+        if not got:
+            if not required:
+                return None
+            if kind in self.have:
+                raise LogFormatError(
+                    "data", f"{self.src}: the log defines {kind!r} but holds no record of it."
+                )
+            close = difflib.get_close_matches(kind, self.have, n=1)
+            raise LogFormatError(
+                "mapping",
+                f"{self.src}: the log has no {kind!r} message"
+                + (f" (did you mean {close[0]!r}?)" if close else "")
+                + (f"; it has {', '.join(self.have)}." if self.have else "."),
+            )
+        a = np.array(got, dtype=float)
+        t, inst = a[:, 0].astype(np.int64), a[:, 1].astype(np.int64)
+        if instance is not None and kind in _INSTANCE:
+            keep = inst == instance
+            if not keep.any():
+                raise LogFormatError(
+                    "mapping",
+                    f"{self.src}: no {kind} record of instance {instance} (field "
+                    f"{_INSTANCE[kind]}); the log has instances {sorted(set(inst.tolist()))}.",
+                )
+            t, a = t[keep], a[keep]
+        return t, a[:, 2:]
+
+
+def _events(msgs: _Messages) -> tuple[Any, bool | None]:
+    """Arming records: ARM (ArmState) and EV (ARMED / DISARMED), in time order."""
+    got = []
+    arm = msgs.get("ARM", required=False)
+    if arm is not None:
+        got += [(int(t), int(v[0] != 0)) for t, v in zip(*arm, strict=True)]
+    ev = msgs.get("EV", required=False)
+    if ev is not None:
+        got += [
+            (int(t), _ARMED_EVENTS[int(v[0])])
+            for t, v in zip(*ev, strict=True)
+            if int(v[0]) in _ARMED_EVENTS
+        ]
+    if not got:
+        return None, None
+    got.sort()
+    a = np.array(got, dtype=np.int64)
+    # the log starts before its first arming record: then the vehicle was in the other state
+    return (a[:, 0], a[:, 1]), not bool(a[0, 1])
 
 
 def read_dataflash(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
     """Read an ArduSub DataFlash log of a vehicle through a mapping file (module
     docstring); ``options`` as :func:`read_log`. Returns :class:`LogData`; the notes
-    say where each quantity came from and the sampling rule."""
+    say where each quantity came from, what was left out and why."""
     path = Path(path)
     src = path.name
     cfg, thr = mapping_section(model, mapping, "ardusub", _KEYS, src, "a DataFlash log")
-    unit, direction, voltage = thruster_options(
-        thr, model.nu, "[ardusub.thrusters]", ("channels",), ("channels",)
-    )
-    channels = [int(c) for c in thr["channels"]]
-    if len(channels) != model.nu or not all(1 <= c <= 14 for c in channels):
-        raise LogFormatError(
-            "mapping",
-            f"mapping file: [ardusub.thrusters] channels must list {model.nu} output channels "
-            f"in 1..14, got {thr['channels']!r}.",
-        )
+    check_thrusters(thr, model.nu)
     states = str(cfg.get("states", "XKF1"))
     rates = str(cfg.get("rates", "IMU"))
     outputs = str(cfg.get("outputs", "RCOU"))
+    battery = str(cfg.get("battery", "BAT"))
+    status = str(cfg.get("status", "XKF4" if states == "XKF1" else "NKF4"))
     core, imu = int(cfg.get("core", 0)), int(cfg.get("imu", 0))
-    msgs = _read_messages(
+    msgs = _Messages(
         path,
         {
             states: _STATE_FIELDS,
             rates: _RATE_FIELDS,
-            outputs: tuple(f"C{c}" for c in channels),
+            outputs: tuple(f"C{c}" for c in range(1, 15)),
+            battery: ("Volt",),
+            status: ("SS",),
+            "ARM": ("ArmState",),
+            "EV": ("Id",),
+            "MODE": ("Mode",),
         },
         src,
     )
-
-    t_s, inst, x = msgs[states]
-    if states in ("XKF1", "NKF1"):
-        keep = inst == core
-        if not keep.any():
-            raise LogFormatError(
-                "mapping", f"{src}: no {states} message of EKF core {core} (`core` in [ardusub])."
-            )
-        t_s, x = t_s[keep], x[keep]
+    t_s, x = msgs.get(states, core if states in _INSTANCE else None)
     att = np.radians(x[:, :3])
     R = rotation_zyx(att[:, 0], att[:, 1], att[:, 2])
     v_body = np.einsum("nji,nj->ni", R, x[:, 3:6])  # R^T v_NED
-    t_r, inst_r, g = msgs[rates]
-    if rates == "IMU":
-        t_r, g = t_r[inst_r == imu], g[inst_r == imu]
+    t_r, g = msgs.get(rates, imu if rates in _INSTANCE else None)
     pqr, offset = nearest(t_s, t_r, g)
-    eta = np.column_stack([x[:, 6:9], att])
-    v = np.column_stack([v_body, pqr])
-
-    t_o, _, pwm = msgs[outputs]
-    held, have = hold_last(t_s, t_o, pwm)
-    rpm, how = thruster_rpm(held[have], unit, direction, voltage, src)
+    armed, before = _events(msgs)
+    bat = msgs.get(battery, 0, required=False)
+    sts = msgs.get(status, core, required=False)
+    mode = msgs.get("MODE", required=False)
     notes = [
-        f"ArduSub DataFlash log; states from {states} (EKF core {core}) at its TimeUS: "
-        "attitude (deg, ZYX Euler), NED position and velocity; body velocity = R^T v_NED",
+        f"states from {states} (EKF core {core}) at its TimeUS: attitude (deg, ZYX Euler), "
+        "NED position and velocity; body velocity = R^T v_NED",
         f"rates from {rates} (instance {imu}) GyrX/GyrY/GyrZ (rad/s, FRD), the sample "
         f"nearest each state stamp (at most {offset / 1e6:.3g} s away)",
-        f"inputs from {outputs} channels {', '.join(f'C{c}' for c in channels)}; {how}",
-        f"sampling rule: {SAMPLING_RULE}",
-        *drop_before_first_command(have, src),
     ]
-    frame = vehicle_frame(model, t_s[have], "us", eta[have], v[have], rpm)
-    return log_from_frame(frame, model, source=src, notes=tuple(notes), **options)
+    if msgs.no_instance:
+        notes.append(
+            f"no instance field {', '.join(sorted(msgs.no_instance))} (an older log): read as "
+            "instance 0"
+        )
+    streams = AutopilotStreams(
+        src=src,
+        kind="ArduSub DataFlash log",
+        t_state=t_s,
+        eta=np.column_stack([x[:, 6:9], att]),
+        v=np.column_stack([v_body, pqr]),
+        outputs=msgs.get(outputs),
+        outputs_name=outputs,
+        params=msgs.params,
+        battery=None if bat is None else (bat[0], bat[1][:, 0]),
+        battery_name=f"{battery}.Volt",
+        armed=armed,
+        armed_before=before,
+        armed_name="ARM / EV records",
+        modes=None if mode is None else (mode[0], mode[1][:, 0]),
+        status=None if sts is None else (sts[0], sts[1][:, 0]),
+        status_name=f"{status}.SS",
+        notes=notes,
+    )
+    return autopilot_log(streams, model, cfg, thr, **options)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import error_norm, error_window, local_errors
 from ..estimate import EstimationResult
-from ..methods import fixed_step, get_method
+from ..methods import Estimator, fixed_step, get_method, get_predictor, stencil_steps
 from ..models import JacobianUnavailableError
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
@@ -52,13 +52,16 @@ class LogEvaluation:
     warnings : tuple of str
     notes : tuple of str
         The time base the rules predicted on (a uniform grid, or the logged stamps)
-        and, on logged stamps, how each rule used the actual steps.
+        and, on logged stamps, how each rule used the actual steps and its noise gain.
+    left_out : tuple of str
+        States predicted but not counted in the norms (``LogData.unmeasured``).
     """
 
     rows: list[dict[str, Any]]
     estimation: EstimationResult | None
     warnings: tuple[str, ...]
     notes: tuple[str, ...] = ()
+    left_out: tuple[str, ...] = ()
 
 
 def _mask(valid: np.ndarray, history: int) -> np.ndarray:
@@ -74,14 +77,15 @@ def _norms(
     err: np.ndarray, data: LogData, where: np.ndarray, norm: str, after: float | None
 ) -> dict[str, Any]:
     kind = np.array([NOISE_REFERENCE.get(u, ("", 0.0))[0] for u in data.traj.state_units])
+    counted = np.array([n not in data.unmeasured for n in data.traj.state_names])
     t = data.traj.t
     out: dict[str, Any] = {}
     for name, idx in (
-        ("err_eta", np.flatnonzero(kind == "eta")),
-        ("err_v", np.flatnonzero(kind == "v")),
+        ("err_eta", np.flatnonzero((kind == "eta") & counted)),
+        ("err_v", np.flatnonzero((kind == "v") & counted)),
     ):
         out[name] = error_norm(err, t, norm, after, idx, where=where) if idx.size else float("nan")
-    out["err_all"] = error_norm(err, t, norm, after, where=where)
+    out["err_all"] = error_norm(err, t, norm, after, np.flatnonzero(counted), where=where)
     keep = where & ~np.isnan(err).any(axis=1)
     if after is not None:
         keep &= t >= after
@@ -131,7 +135,24 @@ def _time_base(data: LogData, methods: Sequence[Any]) -> tuple[str, ...]:
             )
         by_rule.setdefault(m.step_rule, []).append(m.name)
     notes += [f"  {', '.join(names)}: {rule}" for rule, names in by_rule.items()]
+    notes.append(_noise_gains(data, methods))
     return tuple(notes)
+
+
+def _noise_gains(data: LogData, methods: Sequence[Any]) -> str:
+    """Each rule's noise gain per unit Lipschitz constant and step on the log's
+    stencils (the worst step pattern within the largest step ratio one prediction
+    spans, :func:`sampledyn.methods.stencil_steps`), against its uniform-grid value:
+    the factor the noise bounds (24)-(25) take on these stamps."""
+    parts = []
+    for m in methods:
+        h_max, ratio = stencil_steps(data.traj, int(m.history))
+        on_log = float(np.max(m.noise_gain(h_max, np.eye(2), ratio))) / h_max
+        uniform = float(np.max(m.noise_gain(h_max, np.eye(2), 1.0))) / h_max
+        parts.append(f"{m.name} {on_log:.3g} (uniform {uniform:.3g}, step ratio {ratio:.3g})")
+    return "  noise gain / (h L) on the logged steps, as the noise bounds take it: " + ", ".join(
+        parts
+    )
 
 
 def _check_length(data: LogData, methods: Sequence[Any]) -> None:
@@ -330,11 +351,11 @@ def evaluate_log(
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
     error_window(data.traj.t, after)  # checks `after` before any work
-    rules = [get_method(name) for name in methods]
+    rules = [get_predictor(name, "methods") for name in methods]
     _check_length(data, rules)
     notes = _time_base(data, rules)
     segments = data.segments
-    if len(segments) > 1 and any(get_method(name).estimates_params for name in methods):
+    if len(segments) > 1 and any(isinstance(get_method(name), Estimator) for name in methods):
         raise LogFormatError(
             "estimate",
             f"{data.source}: estimation on a log split into {len(segments)} segments is not "
@@ -344,11 +365,13 @@ def evaluate_log(
     estimation = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        for message in data.warnings:
+            warnings.warn(message, UserWarning, stacklevel=2)
         _warn_inputs_beyond_limits(model, data)
         notes += _check_period(model, data, max_h_rate)
         for name in methods:
             method: Any = get_method(name)
-            if method.estimates_params:
+            if isinstance(method, Estimator):
                 x_hat, estimation = method.estimate_and_predict(model, data.traj, after=after)
             else:
                 x_hat = np.full(data.traj.x.shape, np.nan)
@@ -360,4 +383,6 @@ def evaluate_log(
             row.update(_norms(err, data, _mask(data.valid, method.history), norm, after))
             rows.append(row)
     msgs = tuple(dict.fromkeys(str(w.message) for w in caught))
-    return LogEvaluation(rows, estimation, msgs, notes)
+    if data.unmeasured:
+        notes += (f"left out of the norms (not measured by the log): {', '.join(data.unmeasured)}",)
+    return LogEvaluation(rows, estimation, msgs, notes, tuple(data.unmeasured))

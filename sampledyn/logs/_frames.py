@@ -26,6 +26,7 @@ __all__ = [
     "quaternion_matrix",
     "rotation_zyx",
     "to_ned_frd",
+    "twist_frame_fit",
 ]
 
 # Matrix taking coordinates in each frame to NED / FRD.
@@ -118,3 +119,41 @@ def to_ned_frd(
         ang_b = angular @ F.T
     eta = np.column_stack([position @ E.T, euler_zyx(R_nb)])
     return eta, np.column_stack([lin_b, ang_b])
+
+
+def twist_frame_fit(
+    t: np.ndarray,
+    position: np.ndarray,
+    R: np.ndarray,
+    linear: np.ndarray,
+    *,
+    world: str,
+    body: str,
+) -> tuple[float, float, float]:
+    """How well the logged position increments fit the kinematics (6) under the two
+    readings of a logged linear twist: in the body frame (p' = R_NED,FRD F v) and in
+    the world frame (p' = E v).
+
+    Parameters as :func:`to_ned_frd` (``linear`` as logged), ``t`` the stamps (s).
+    Returns (rms residual of the body reading, of the world reading, rms of the
+    increments) in m: the residual of step n is p_n+1 - p_n - (t_n+1 - t_n)/2 (p'_n +
+    p'_n+1) (the trapezoidal rule, exact to O(h^3) per step for a smooth motion).
+    """
+    E = WORLD_FRAMES[world]
+    F = BODY_FRAMES[body]
+    p = position @ E.T
+    dp = np.diff(p, axis=0)
+    dt = np.diff(t)[:, None]
+    R_nb = E @ R @ F
+
+    def residual(rate: np.ndarray) -> float:
+        r = dp - 0.5 * dt * (rate[:-1] + rate[1:])
+        return float(np.sqrt(np.mean(np.sum(r * r, axis=1))))
+
+    body_rate = np.einsum("nij,nj->ni", R_nb, linear @ F.T)
+    world_rate = linear @ E.T
+    return (
+        residual(body_rate),
+        residual(world_rate),
+        float(np.sqrt(np.mean(np.sum(dp * dp, axis=1)))),
+    )

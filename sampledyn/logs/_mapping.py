@@ -11,7 +11,7 @@ from typing import Any
 
 from ._units import LogFormatError
 
-__all__ = ["check_keys", "load_toml", "table_mapping"]
+__all__ = ["check_keys", "load_toml", "model_for_mapping", "table_mapping"]
 
 
 def load_toml(mapping: Any) -> dict[str, Any]:
@@ -74,7 +74,15 @@ def table_mapping(
         valid spelling.
     """
     if "columns" in raw:
-        check_keys(raw, ["columns"], "the top level (a CSV/Parquet mapping has [columns])")
+        check_keys(
+            raw, ["columns", "inputs"], "the top level (a CSV/Parquet mapping has [columns])"
+        )
+        if raw.get("inputs", "wrench") != "wrench":
+            raise LogFormatError(
+                "mapping",
+                f'mapping file: `inputs` may only be "wrench" (the commanded body force and '
+                f"moment X, Y, Z, K, M, N), got {raw['inputs']!r}.",
+            )
         cols = raw["columns"]
         if not isinstance(cols, Mapping):
             raise LogFormatError("mapping", "mapping file: [columns] must be a table.")
@@ -111,3 +119,28 @@ def table_mapping(
             )
         out[str(col)] = {k: str(v) for k, v in entry.items()}
     return out
+
+
+def model_for_mapping(model: Any, mapping: Any) -> Any:
+    """``model`` with the commanded wrench as its input (``wrench_input=True``) when
+    the mapping file gives wrench inputs (``[ros.wrench]``, or ``inputs = "wrench"``
+    beside a table's ``[columns]``), else ``model`` itself.
+
+    Raises
+    ------
+    LogFormatError
+        if the mapping gives wrench inputs and the model is no vehicle that can take
+        them.
+    """
+    raw = load_toml(mapping)
+    ros = raw.get("ros")
+    wrench = raw.get("inputs") == "wrench" or (isinstance(ros, Mapping) and "wrench" in ros)
+    if not wrench or getattr(model, "wrench_input", False):
+        return model
+    if not hasattr(model, "wrench_input"):
+        raise LogFormatError(
+            "mapping",
+            "mapping file: gives the commanded wrench as the input, but the model is no "
+            "vehicle (only a Vehicle takes wrench_input=True).",
+        )
+    return model.with_params(wrench_input=True)

@@ -7,7 +7,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from ._read import TIME_TOLERANCE, LogData, log_from_frame, read_table
+from ._formats import detect_format
+from ._read import TIME_TOLERANCE, LogData
 
 __all__ = ["read_log"]
 
@@ -22,17 +23,20 @@ def read_log(
     unwrap: bool = True,
     gaps: str = "refuse",
     max_missing: int = 1,
+    irregular: bool = False,
 ) -> LogData:
     """Read a log of ``model`` and validate it (module docstring).
 
     Parameters
     ----------
     path : str or path
-        A table: ``.csv`` (any other suffix is read as CSV too) or ``.parquet``/``.pq``;
-        a ROS bag: a ROS 2 bag directory (``metadata.yaml``), a ``.db3``/``.mcap`` file,
-        or a ROS 1 ``.bag`` (extra ``sampledyn[ros]``); an ArduSub DataFlash log
-        ``.bin`` (extra ``sampledyn[ardusub]``). Bags and DataFlash logs need a
-        ``mapping`` (see ``docs/logs.md``).
+        Any format of :data:`sampledyn.logs.LOG_FORMATS` (detected from the content
+        where the suffix is ambiguous): a table (``.csv``, any other suffix is read as
+        CSV too, or ``.parquet``/``.pq``); a ROS 2 bag (its directory, a ``.db3``, or
+        an ``.mcap`` file with or without ``metadata.yaml``) or a ROS 1 ``.bag``
+        (extra ``sampledyn[ros]``); an ArduSub DataFlash log or a MAVLink ``.tlog``
+        (extra ``sampledyn[ardusub]``); a BlueOS MCAP log (extra
+        ``sampledyn[blueos]``). All but tables need a ``mapping`` (``docs/logs.md``).
     model : Model
         The vehicle the log is of; its state and input names and units are expected.
     mapping : path or mapping, optional
@@ -51,6 +55,9 @@ def read_log(
         log into segments evaluated on their own. Nothing is ever interpolated.
     max_missing : int
         Longest run of missing records ``gaps="bridge"`` accepts (default 1).
+    irregular : bool
+        Accept a log whose steps are no whole numbers of one period (default False:
+        refused): the rules predict on the logged stamps as they are.
 
     Raises
     ------
@@ -66,22 +73,7 @@ def read_log(
         "unwrap": unwrap,
         "gaps": gaps,
         "max_missing": max_missing,
+        "irregular": irregular,
     }
-    if path.is_dir() or path.suffix.lower() in (".bag", ".db3", ".mcap"):
-        from ._ros import read_bag
-
-        return read_bag(path, model, mapping=mapping, **options)
-    if not path.is_file():
-        raise FileNotFoundError(f"no log file {str(path)!r}.")
-    if path.suffix.lower() in (".bin", ".log") and _is_dataflash(path):
-        from ._ardusub import read_dataflash
-
-        return read_dataflash(path, model, mapping=mapping, **options)
-    frame, csv = read_table(path, model, mapping)
-    return log_from_frame(frame, model, source=path.name, mapping=mapping, csv=csv, **options)
-
-
-def _is_dataflash(path: Path) -> bool:
-    """A binary DataFlash log starts with a message header 0xA3 0x95."""
-    with path.open("rb") as fh:
-        return fh.read(2) == b"\xa3\x95"
+    fmt = detect_format(path)
+    return fmt.read(path, model, mapping=mapping, **options)

@@ -50,7 +50,14 @@ from ._mapping import load_toml, table_mapping
 from ._time import Sampling, check_policy, read_clock, sampling
 from ._units import LogFormatError, conversion_factor, split_header
 
-__all__ = ["NAN_POLICIES", "TIME_TOLERANCE", "LogData", "log_from_frame", "read_table"]
+__all__ = [
+    "NAN_POLICIES",
+    "TIME_TOLERANCE",
+    "LogData",
+    "log_from_frame",
+    "read_table",
+    "read_table_log",
+]
 
 NAN_POLICIES = ("error", "drop", "interpolate")
 
@@ -86,6 +93,12 @@ class LogData:
     time_unit : str or None
         Its unit as read (header or mapping file: "s", "ms", ..., "datetime"), None
         where the column had none (ISO-8601 text).
+    unmeasured : tuple of str
+        States the log holds but does not measure (an estimator without a position
+        fix holds x, y): predicted, but left out of the error norms.
+    warnings : tuple of str
+        What makes the log's errors doubtful as a test of the model (a log in air);
+        :func:`evaluate_log` passes them on.
     """
 
     traj: Trajectory
@@ -97,6 +110,8 @@ class LogData:
     rows: np.ndarray | None = None
     time_column: str = "t"
     time_unit: str | None = "s"
+    unmeasured: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     @property
     def segments(self) -> tuple[tuple[int, int], ...]:
@@ -206,7 +221,7 @@ def _count_inputs(model: Any) -> str:
     listed = f"{names[0]}..{names[-1]}" if len(names) > 2 else ", ".join(names)
     n_thr = getattr(model, "n_thrusters", None)
     who = f"vehicle {model.name!r}" if hasattr(model, "name") else "the model"
-    if n_thr is not None:
+    if n_thr is not None and not getattr(model, "wrench_input", False):
         return f"{who} has {n_thr} thruster{'s' if n_thr != 1 else ''} (inputs {listed})"
     return f"{who} has {len(names)} input{'s' if len(names) != 1 else ''} ({listed})"
 
@@ -301,6 +316,19 @@ def _check_angles(
             )
 
 
+def _unwrap_angles(data: np.ndarray, model: Any) -> list[str]:
+    """Unwrap the angle columns of ``data`` in place (NaN rows skipped); notes."""
+    notes = []
+    for k, unit in enumerate(model.state_units):
+        if unit == "rad":
+            ok = np.isfinite(data[:, k])
+            w = np.unwrap(data[ok, k])
+            if not np.array_equal(w, data[ok, k]):
+                notes.append(f"{model.state_names[k]} unwrapped")
+                data[ok, k] = w
+    return notes
+
+
 def log_from_frame(
     frame: Any,
     model: Any,
@@ -314,11 +342,15 @@ def log_from_frame(
     gaps: str = "refuse",
     max_missing: int = 1,
     notes: tuple[str, ...] = (),
+    irregular: bool = False,
+    unmeasured: tuple[str, ...] = (),
+    warnings: tuple[str, ...] = (),
 ) -> LogData:
     """Validate a pandas DataFrame as a log of ``model`` (see the module docstring).
 
     ``notes`` are prepended to the log's notes (how a bag or DataFlash log was
-    turned into this frame). Other parameters: :func:`read_log`.
+    turned into this frame); ``unmeasured`` and ``warnings`` go to the LogData as
+    they are. Other parameters: :func:`read_log`.
     """
     if nan not in NAN_POLICIES:
         raise LogFormatError("nan", f"`nan` must be one of {', '.join(NAN_POLICIES)}, got {nan!r}.")
@@ -365,6 +397,7 @@ def log_from_frame(
         max_missing=max_missing,
         src=source,
         row=row,
+        irregular=irregular,
     )
     t = smp.t
     nx = model.nx
@@ -381,13 +414,7 @@ def log_from_frame(
         more = f" and {len(unused) - 8} more" if len(unused) > 8 else ""
         out_notes.append(f"columns not used by the model: {', '.join(unused[:8])}{more}")
     if unwrap:  # before any filling, so that no interpolation spans a wrap-around
-        for k, unit in enumerate(model.state_units):
-            if unit == "rad":
-                ok = np.isfinite(data[:, k])
-                w = np.unwrap(data[ok, k])
-                if not np.array_equal(w, data[ok, k]):
-                    out_notes.append(f"{model.state_names[k]} unwrapped")
-                    data[ok, k] = w
+        out_notes += _unwrap_angles(data, model)
     if not np.isfinite(data).all():
         data = _fill(data, t)
     traj = Trajectory(
@@ -402,7 +429,19 @@ def log_from_frame(
         origin=clock.origin,
     )
     rows = np.arange(keep.start, keep.stop)
-    return LogData(traj, valid, source, smp.jitter, tuple(out_notes), smp, rows, str(tcol), tunit)
+    return LogData(
+        traj,
+        valid,
+        source,
+        smp.jitter,
+        tuple(out_notes),
+        smp,
+        rows,
+        str(tcol),
+        tunit,
+        tuple(unmeasured),
+        tuple(warnings),
+    )
 
 
 def _refuse_repeated_columns(path: Path) -> None:
@@ -442,3 +481,9 @@ def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
         if isinstance(exc, LogFormatError):
             raise
         raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
+
+
+def read_table_log(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+    """A CSV or Parquet log (the reader of the "csv" and "parquet" formats)."""
+    frame, csv = read_table(path, model, mapping)
+    return log_from_frame(frame, model, source=path.name, mapping=mapping, csv=csv, **options)

@@ -19,18 +19,21 @@ from typing import Any
 import numpy as np
 
 from ._mapping import check_keys, load_toml
-from ._t200 import T200_VOLTAGES, t200_rpm
+from ._t200 import T200_VOLTAGES, t200_deadband, t200_rpm
 from ._units import CONVERSIONS, LogFormatError
 
 __all__ = [
     "SAMPLING_RULE",
+    "SURFACE_DEPTH",
     "THRUSTER_KEYS",
     "VEHICLE_STATES",
     "check_vehicle",
     "drop_before_first_command",
     "hold_last",
+    "longest_stretch",
     "mapping_section",
     "nearest",
+    "surface_warning",
     "thruster_options",
     "thruster_rpm",
     "vehicle_frame",
@@ -60,8 +63,9 @@ def check_vehicle(model: Any, src: str) -> None:
 def mapping_section(
     model: Any, mapping: Any, section: str, keys: Sequence[str], src: str, what: str
 ) -> tuple[dict[str, Any], Mapping[str, Any]]:
-    """The ``[section]`` of a bag or DataFlash mapping file and its ``thrusters``
-    table, every key checked (the model must be a 6-DoF vehicle)."""
+    """The ``[section]`` of a bag or DataFlash mapping file and its input table
+    (``thrusters``, or ``wrench`` where ``keys`` allows it), every key checked (the
+    model must be a 6-DoF vehicle whose input is the one the table gives)."""
     check_vehicle(model, src)
     raw = load_toml(mapping)
     if not raw:
@@ -70,11 +74,33 @@ def mapping_section(
     cfg = raw[section]
     if not isinstance(cfg, Mapping):
         raise LogFormatError("mapping", f"mapping file: [{section}] must be a table.")
-    check_keys(cfg, keys, f"[{section}]", required=["thrusters"])
-    thr = cfg["thrusters"]
-    if not isinstance(thr, Mapping):
-        raise LogFormatError("mapping", f"mapping file: [{section}.thrusters] must be a table.")
-    return dict(cfg), thr
+    inputs = [k for k in ("thrusters", "wrench") if k in keys]
+    check_keys(cfg, keys, f"[{section}]")
+    given = [k for k in inputs if k in cfg]
+    if len(given) != 1:
+        raise LogFormatError(
+            "mapping",
+            f"mapping file: [{section}] needs "
+            + " or ".join(f"[{section}.{k}]" for k in inputs)
+            + (" (one of them)." if len(inputs) > 1 else "."),
+        )
+    table = cfg[given[0]]
+    if not isinstance(table, Mapping):
+        raise LogFormatError("mapping", f"mapping file: [{section}.{given[0]}] must be a table.")
+    wrench = bool(getattr(model, "wrench_input", False))
+    if wrench != (given[0] == "wrench"):
+        fix = (
+            "load the vehicle with wrench_input=True (sampledyn evaluate does so for a "
+            "mapping with [{s}.wrench])"
+            if given[0] == "wrench"
+            else "give the commanded wrench in [{s}.wrench], or a vehicle with thruster inputs"
+        ).format(s=section)
+        raise LogFormatError(
+            "mapping",
+            f"{src}: the mapping gives the {'wrench' if given[0] == 'wrench' else 'thruster'} "
+            f"inputs but the model's inputs are {', '.join(model.input_names)}; {fix}.",
+        )
+    return dict(cfg), table
 
 
 def hold_last(
@@ -118,8 +144,9 @@ def nearest(
 
 def thruster_options(
     table: Mapping[str, Any], nu: int, where: str, extra: Sequence[str], required: Sequence[str]
-) -> tuple[str, np.ndarray, float]:
-    """Check the thruster table of a mapping file; returns (unit, direction, voltage)."""
+) -> tuple[str, np.ndarray | None, float | str]:
+    """Check the thruster table of a mapping file; returns (unit, direction or None
+    where the table gives none, voltage: a number in 10..20 V or "logged")."""
     check_keys(table, [*extra, *THRUSTER_KEYS], where, required=[*required, "unit"])
     unit = str(table["unit"])
     accepted = [*CONVERSIONS["rpm"], "pwm"]
@@ -129,42 +156,125 @@ def thruster_options(
             f"mapping file: {where}: unit {unit!r} is not a thruster command unit; accepted: "
             f"{', '.join(accepted)} ('pwm': ESC pulse width in us, through the T200 table).",
         )
-    direction = np.asarray(table.get("direction", [1] * nu), dtype=float)
-    if direction.shape != (nu,) or not np.isin(direction, (-1.0, 1.0)).all():
+    direction = None
+    if "direction" in table:
+        direction = np.asarray(table["direction"], dtype=float)
+        if direction.shape != (nu,) or not np.isin(direction, (-1.0, 1.0)).all():
+            raise LogFormatError(
+                "mapping",
+                f"mapping file: {where}: `direction` must list {nu} signs (+1 or -1), got "
+                f"{table.get('direction')!r}.",
+            )
+    voltage: float | str = table.get("voltage", 16)
+    lo, hi = T200_VOLTAGES[0], T200_VOLTAGES[-1]
+    if voltage != "logged" and not (
+        isinstance(voltage, int | float) and not isinstance(voltage, bool) and lo <= voltage <= hi
+    ):
         raise LogFormatError(
             "mapping",
-            f"mapping file: {where}: `direction` must list {nu} signs (+1 or -1), got "
-            f"{table.get('direction')!r}.",
+            f"mapping file: {where}: `voltage` must be the T200 supply in {lo}..{hi} V "
+            f'(interpolated between the measured {T200_VOLTAGES} V) or "logged" (the '
+            f"log's battery voltage), got {voltage!r}.",
         )
-    voltage = float(table.get("voltage", 16))
-    if unit == "pwm" and voltage not in T200_VOLTAGES:
-        raise LogFormatError(
-            "mapping",
-            f"mapping file: {where}: `voltage` must be one of the T200 table's supplies "
-            f"{T200_VOLTAGES} V, got {voltage:g}.",
-        )
-    return unit, direction, voltage
+    return unit, direction, voltage if voltage == "logged" else float(voltage)
+
+
+def _volts_text(voltage: float | np.ndarray) -> str:
+    v = np.asarray(voltage, dtype=float)
+    if v.ndim == 0 or v.min() == v.max():
+        return f"{float(v.ravel()[0]):.4g} V"
+    return f"{v.min():.4g}..{v.max():.4g} V"
+
+
+def _deadband_note(values: np.ndarray, voltage: float | np.ndarray) -> str | None:
+    """How many commands (on, i.e. not 0 us) sit in the T200 deadband."""
+    lo, hi = t200_deadband(float(np.mean(voltage)))
+    on = values != 0
+    inside = on & (values >= lo) & (values <= hi)
+    if not inside.any():
+        return None
+    off = inside & (values != 1500)
+    seen = values[off] if off.any() else values[inside]
+    return (
+        f"{int(inside.sum())} of {int(on.sum())} thruster commands lie in the T200 deadband "
+        f"{lo:g}..{hi:g} us (0 rpm by the table), {int(off.sum())} of them off the 1500 us "
+        f"neutral ({seen.min():g}..{seen.max():g} us)"
+    )
 
 
 def thruster_rpm(
-    values: np.ndarray, unit: str, direction: np.ndarray, voltage: float, src: str
-) -> tuple[np.ndarray, str]:
-    """Commands (N, nu) in ``unit`` -> signed rpm (N, nu), and a note saying how."""
+    values: np.ndarray,
+    unit: str,
+    direction: np.ndarray,
+    voltage: float | np.ndarray,
+    src: str,
+    voltage_source: str = "",
+) -> tuple[np.ndarray, list[str]]:
+    """Commands (N, nu) in ``unit`` -> signed rpm (N, nu), and notes saying how.
+
+    ``voltage`` is one supply (V) or one per sample (shape (N,)); PWM of 0 us (no
+    pulse: output off) is 0 rpm."""
+    notes: list[str] = []
     if unit == "pwm":
+        volts = np.asarray(voltage, dtype=float)
+        off = values == 0
         try:
-            rpm = t200_rpm(values, voltage)
+            rpm = t200_rpm(
+                np.where(off, 1500.0, values), volts[:, None] if volts.ndim == 1 else volts
+            )
         except ValueError as exc:
             raise LogFormatError("thrusters", f"{src}: {exc}") from None
         how = (
-            f"thruster PWM (us) -> rpm by the Blue Robotics T200 table at {voltage:g} V "
-            "(bollard data, linear between its 4 us points)"
+            f"thruster PWM (us) -> rpm by the Blue Robotics T200 table at {_volts_text(volts)}"
+            f"{voltage_source} (bollard data, linear between its 4 us points"
+            + (", and between its 2 V tables)" if _between_tables(volts) else ")")
         )
+        if off.any():
+            notes.append(
+                f"{int(off.sum())} thruster commands of 0 us (no pulse: off) taken as 0 rpm"
+            )
+        dead = _deadband_note(values, volts)
+        if dead:
+            notes.append(dead)
     else:
         rpm = values * CONVERSIONS["rpm"][unit]
         how = f"thruster commands in {unit} -> rpm"
     if (direction < 0).any():
         how += f", signs {', '.join(f'{d:+.0f}' for d in direction)}"
-    return rpm * direction, how
+    return rpm * direction, [how, *notes]
+
+
+def _between_tables(volts: np.ndarray) -> bool:
+    return not np.isin(np.ravel(volts), T200_VOLTAGES).all()
+
+
+def longest_stretch(keep: np.ndarray) -> tuple[int, int, int]:
+    """(start, stop, number of stretches) of the longest run of True in ``keep``."""
+    edges = np.diff(np.concatenate([[0], keep.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    if not starts.size:
+        return 0, 0, 0
+    k = int(np.argmax(stops - starts))
+    return int(starts[k]), int(stops[k]), int(starts.size)
+
+
+#: Depth (m) below which an ArduSub log is taken as in air or at the surface: the
+#: BlueROV2's frame is 254 mm high, so with its origin less than 0.1 m under the
+#: surface part of it is out of the water (and a bench log reads about 0).
+SURFACE_DEPTH = 0.1
+
+
+def surface_warning(z: np.ndarray, src: str) -> list[str]:
+    """A warning when the depth z (m, NED, from the autopilot's pressure sensor) stays
+    below :data:`SURFACE_DEPTH` throughout."""
+    if z.size and float(np.max(z)) < SURFACE_DEPTH:
+        return [
+            f"{src}: the depth stays below {SURFACE_DEPTH:g} m throughout (z = "
+            f"{float(np.min(z)):.3g}..{float(np.max(z)):.3g} m): the log was recorded in air or "
+            "at the surface, outside the hydrodynamic model (added mass, damping and "
+            "buoyancy of a submerged vehicle); its errors do not measure the model"
+        ]
+    return []
 
 
 def vehicle_frame(
@@ -181,6 +291,6 @@ def vehicle_frame(
     columns: dict[str, Any] = {f"t[{stamp_unit}]": np.asarray(stamps, dtype=np.int64)}
     for k, (name, unit) in enumerate(zip(VEHICLE_STATES, _STATE_UNITS, strict=True)):
         columns[f"{name}[{unit}]"] = (eta if k < 6 else v)[:, k % 6]
-    for j, name in enumerate(model.input_names):
-        columns[f"{name}[rpm]"] = rpm[:, j]
+    for j, (name, unit) in enumerate(zip(model.input_names, model.input_units, strict=True)):
+        columns[f"{name}[{unit}]"] = rpm[:, j]
     return pd.DataFrame(columns)

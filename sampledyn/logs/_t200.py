@@ -11,7 +11,11 @@ notes: 1100-1500 us runs the thruster in reverse, 1500-1900 us forward; speeds b
 reverse is negative. At 16 V it ends at 3533 rpm forward and 3465 rpm reverse, the
 values the BlueROV2 Heavy vehicle file takes for n_max and K1.
 
-The curve is this table, linear between its points (4 us apart): no fit. It holds
+The curve is this table, linear between its points (4 us apart): no fit. At a supply
+between two measured voltages (a battery at 17.4 V) the speed is interpolated
+linearly in the voltage between the two tables (the speed of a BLDC motor at a
+given duty cycle grows about in proportion to its supply; the tables 2 V apart
+differ by 4-9 %, so the linear step between them is much finer than that). It holds
 for the conditions measured; a thruster moving through the water turns at another
 speed for the same command (the Basic ESC is open loop), so logged PWM gives the
 bollard speed, not the speed in motion.
@@ -21,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["T200_PWM_US", "T200_VOLTAGES", "t200_rpm"]
+__all__ = ["T200_PWM_US", "T200_VOLTAGES", "t200_deadband", "t200_rpm"]
 
 T200_PWM_US = np.arange(1100, 1901, 4, dtype=float)
 
@@ -118,28 +122,44 @@ def _table(voltage: float) -> np.ndarray:
     return np.where(T200_PWM_US < 1500, -1.0, 1.0) * rpm
 
 
-def t200_rpm(pwm_us: np.ndarray, voltage: float = 16) -> np.ndarray:
+def _check_voltage(voltage: np.ndarray) -> None:
+    lo, hi = T200_VOLTAGES[0], T200_VOLTAGES[-1]
+    bad = ~((voltage >= lo) & (voltage <= hi))
+    if bad.any():
+        v = float(np.ravel(voltage)[int(np.argmax(np.ravel(bad)))])
+        raise ValueError(
+            f"T200 supply {v:g} V is outside the measured {lo}..{hi} V (Blue Robotics "
+            "publishes no data beyond)."
+        )
+
+
+def t200_rpm(pwm_us: np.ndarray, voltage: float | np.ndarray = 16) -> np.ndarray:
     """Propeller speed (rpm, negative in reverse) of a T200 for ESC commands ``pwm_us``.
 
     Parameters
     ----------
     pwm_us : ndarray
         Pulse widths (us) in [1100, 1900]; any shape.
-    voltage : {10, 12, 14, 16, 18, 20}
-        Supply voltage (V) of the table used (default 16, the BlueROV2's 4S battery).
+    voltage : float or ndarray
+        Supply voltage (V) in [10, 20] (default 16, the BlueROV2's 4S battery): a
+        measured supply (10, 12, ..., 20) takes its table, one between two takes the
+        linear interpolation of their speeds; an array (broadcast against
+        ``pwm_us``, e.g. shape (N, 1) for one battery voltage per sample) gives each
+        command its own supply.
 
     Returns
     -------
-    ndarray of the shape of ``pwm_us``: linear interpolation in the published table.
+    ndarray of the broadcast shape: linear interpolation in the published table.
 
     Raises
     ------
     ValueError
-        for a command outside [1100, 1900] us (naming the first), or a voltage that
-        was not measured.
+        for a command outside [1100, 1900] us (naming the first), or a voltage
+        outside the measured 10..20 V.
     """
     pwm = np.asarray(pwm_us, dtype=float)
-    rpm = _table(voltage)
+    volts = np.asarray(voltage, dtype=float)
+    _check_voltage(volts)
     bad = ~((pwm >= 1100) & (pwm <= 1900))
     if bad.any():
         i = int(np.argmax(bad.ravel()))
@@ -147,4 +167,24 @@ def t200_rpm(pwm_us: np.ndarray, voltage: float = 16) -> np.ndarray:
             f"T200 command {pwm.ravel()[i]:g} us (element {i}) is outside the published "
             "range 1100..1900 us."
         )
-    return np.interp(pwm, T200_PWM_US, rpm)
+    pwm, volts = np.broadcast_arrays(pwm, volts)
+    measured = np.array(T200_VOLTAGES, dtype=float)
+    k = np.clip(np.searchsorted(measured, volts, side="right") - 1, 0, measured.size - 2)
+    w = (volts - measured[k]) / (measured[k + 1] - measured[k])
+    speeds = np.stack([np.interp(pwm, T200_PWM_US, _table(v)) for v in T200_VOLTAGES])
+    lower = np.take_along_axis(speeds, k[None], 0)[0]
+    upper = np.take_along_axis(speeds, (k + 1)[None], 0)[0]
+    return (1.0 - w) * lower + w * upper
+
+
+def t200_deadband(voltage: float = 16) -> tuple[float, float]:
+    """The command range (us) around 1500 us where the table gives 0 rpm at
+    ``voltage`` (V, in 10..20), e.g. (1472, 1528) at 16 V: a command inside it leaves
+    the thruster standing (Blue Robotics records speeds below 300 rpm as 0)."""
+    zero = t200_rpm(T200_PWM_US, float(voltage)) == 0
+    lo = hi = int(np.flatnonzero(T200_PWM_US == 1500)[0])
+    while lo > 0 and zero[lo - 1]:
+        lo -= 1
+    while hi < zero.size - 1 and zero[hi + 1]:
+        hi += 1
+    return float(T200_PWM_US[lo]), float(T200_PWM_US[hi])

@@ -331,8 +331,13 @@ def sampling(
     max_missing: int,
     src: str,
     row: Callable[[int], str],
+    irregular: bool = False,
 ) -> Sampling:
     """Classify the steps of ``clock`` and apply the gap policy (module docstring).
+
+    With ``irregular`` a log whose steps are no whole numbers of one period is
+    accepted as it is: the stamps are kept, h is the median step, and no step is
+    taken as dropped records.
 
     Raises
     ------
@@ -353,6 +358,8 @@ def sampling(
     m = np.rint(d / h0).astype(np.int64)
     off = np.abs(d - m * h0)
     bad = (m < 1) | (off > tolerance * h0)
+    if bad.any() and irregular:
+        return _irregular(t, d, h0, clock)
     if bad.any():
         i = int(np.argmax(bad))
         raise LogFormatError(
@@ -360,7 +367,8 @@ def sampling(
             f"{src}: t is not uniformly sampled: between {row(i)} and {row(i + 1)} t jumps "
             f"from {t[i]:.9g} s to {t[i + 1]:.9g} s (step {d[i]:.6g} s; h = {h0:.6g} s, the "
             f"median step), not within {tolerance:.2%} of a whole number of periods. Split "
-            "the log there, or raise `time_tolerance`.",
+            "the log there, raise `time_tolerance`, or accept irregular steps (`irregular`="
+            "True, --irregular: every rule predicts on the logged stamps).",
         )
     idx = np.concatenate([[0], np.cumsum(m)])
     h_grid = float(t[-1] / idx[-1])
@@ -435,6 +443,19 @@ def sampling(
                 "its own; nothing is interpolated"
             )
     return Sampling(times, h, bool(uniform), jitter, gap_list, segments, tuple(notes))
+
+
+def _irregular(t: np.ndarray, d: np.ndarray, h: float, clock: Clock) -> Sampling:
+    """An irregular log taken as it is (``irregular=True``)."""
+    ratio = float(d.max() / d.min())
+    jitter = float((np.abs(d - h) / h).max())
+    notes = (
+        f"time: {clock.kind}; t = 0 at {clock.origin}",
+        f"sampling: irregular, accepted (irregular=True, --irregular): steps "
+        f"{d.min():.6g}..{d.max():.6g} s (ratio {ratio:.3g}), h = {h:.6g} s the median "
+        "step; the time stamps are kept as logged, no step is taken as dropped records",
+    )
+    return Sampling(t, h, False, jitter, (), ((0, int(t.size)),), notes)
 
 
 def check_policy(gaps: str, max_missing: Any, tolerance: Any) -> None:

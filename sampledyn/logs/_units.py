@@ -35,6 +35,8 @@ CONVERSIONS: dict[str, dict[str, float]] = {
     "rad/s": {"rad/s": 1.0, "deg/s": _DEG, "°/s": _DEG},
     "rpm": {"rpm": 1.0, "rev/min": 1.0, "rps": 60.0, "rev/s": 60.0, "rad/s": 60.0 / (2 * math.pi)},
     "m/s^2": {"m/s^2": 1.0},
+    "N": {"N": 1.0, "kN": 1e3},
+    "N m": {"N m": 1.0, "Nm": 1.0, "N*m": 1.0},
     "": {"": 1.0, "1": 1.0, "-": 1.0},
 }
 
@@ -46,6 +48,8 @@ _KIND = {
     "rad/s": "an angular rate",
     "rpm": "a rotational speed",
     "m/s^2": "an acceleration",
+    "N": "a force",
+    "N m": "a moment",
     "": "dimensionless",
 }
 

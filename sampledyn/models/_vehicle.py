@@ -29,6 +29,11 @@
   the way it pushes.
 
 State ``x = (eta, v)`` (12) or ``(eta, v, n)`` (12 + N) with the lag option.
+
+Commanded wrench as the input (``wrench_input=True``): many vehicle stacks log the
+body force and moment their controller commanded instead of thruster commands; then
+u = tau = (X, Y, Z, K, M, N) (N, N m, body axes; Fossen's names) enters eq. (5)
+directly and the thrusters of eq. (7) are bypassed (no saturation, no inflow term).
 """
 
 from __future__ import annotations
@@ -65,6 +70,9 @@ _ETA_NAMES = ("x", "y", "z", "phi", "theta", "psi")
 _V_NAMES = ("u", "v", "w", "p", "q", "r")
 _ETA_UNITS = ("m", "m", "m", "rad", "rad", "rad")
 _V_UNITS = ("m/s", "m/s", "m/s", "rad/s", "rad/s", "rad/s")
+# tau of eq. (5) when the wrench is the input (Fossen 2011, Table 2.1: X, Y, Z, K, M, N)
+WRENCH_NAMES = ("X", "Y", "Z", "K", "M", "N")
+WRENCH_UNITS = ("N", "N", "N", "N m", "N m", "N m")
 
 # Scalar parameter names (Fossen / SNAME notation). The hydrodynamic coefficients are
 # stored as positive magnitudes: M_A = diag(X_udot, ...), D_l = diag(X_u, ...),
@@ -384,6 +392,10 @@ class Vehicle(CompiledModel):
     pitch_tolerance_deg : float
         ``f`` and ``jacobian`` raise ValueError when some |theta| is within this of
         90 deg, where J(eta) is singular. Default 0.5 (1/cos(theta) = 115).
+    wrench_input : bool
+        The input is the commanded wrench tau = (X, Y, Z, K, M, N) of eq. (5) (N,
+        N m, body axes), thrusters bypassed (nu = 6); off by default (thruster rpm).
+        Not with ``thruster_lag``.
     name : str
         Label.
     sources : mapping, optional
@@ -426,6 +438,7 @@ class Vehicle(CompiledModel):
     cable_force: tuple[float, ...] = (0.0,) * 6
     pitch_limit_deg: float = 80.0
     pitch_tolerance_deg: float = 0.5
+    wrench_input: bool = False
     name: str = "vehicle"
     sources: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
 
@@ -450,8 +463,11 @@ class Vehicle(CompiledModel):
 
     @property
     def kink_inputs(self) -> tuple[int, ...]:
-        """Input indices inside ``|.|`` (thruster rpm n |n| without the lag option)."""
-        return () if self.thruster_lag else tuple(range(self.n_thrusters))
+        """Input indices inside ``|.|`` (thruster rpm n |n| without the lag option;
+        none for a wrench input)."""
+        if self.thruster_lag or self.wrench_input:
+            return ()
+        return tuple(range(self.n_thrusters))
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -515,6 +531,17 @@ class Vehicle(CompiledModel):
                 "thruster_lag", f"`thruster_lag` must be True or False, got {self.thruster_lag!r}."
             )
         put(self, "thruster_lag", bool(self.thruster_lag))
+        if not isinstance(self.wrench_input, bool | np.bool_):
+            raise VehicleParameterError(
+                "wrench_input", f"`wrench_input` must be True or False, got {self.wrench_input!r}."
+            )
+        put(self, "wrench_input", bool(self.wrench_input))
+        if self.wrench_input and self.thruster_lag:
+            raise VehicleParameterError(
+                "wrench_input",
+                "`wrench_input` bypasses the thrusters, so it cannot have `thruster_lag`; "
+                "switch one of them off.",
+            )
         put(self, "sources", dict(self.sources))
 
         pos = np.asarray(self.thruster_positions, dtype=float)
@@ -569,7 +596,7 @@ class Vehicle(CompiledModel):
         current = np.asarray(self.current)
         zeros = np.zeros(6)
         p = pack_params(
-            n_thrusters=n_thr,
+            n_thrusters=0 if self.wrench_input else n_thr,
             lag=self.thruster_lag,
             lag_time_constant=self.lag_time_constant,
             K1=self.K1,
@@ -586,7 +613,8 @@ class Vehicle(CompiledModel):
             current_ned=current if self.current_frame == "ned" else zeros,
             M=M,
             Minv=minv,
-            allocation=alloc,
+            allocation=alloc[:, :0] if self.wrench_input else alloc,
+            wrench_input=self.wrench_input,
         )
         for a in (M, minv, alloc):
             a.setflags(write=False)
@@ -599,12 +627,17 @@ class Vehicle(CompiledModel):
         put(self, "buoyancy", Bf)
         nx = 12 + (n_thr if self.thruster_lag else 0)
         put(self, "nx", nx)
-        put(self, "nu", n_thr)
         lag_names = tuple(f"n{i + 1}" for i in range(n_thr)) if self.thruster_lag else ()
         put(self, "state_names", _ETA_NAMES + _V_NAMES + lag_names)
         put(self, "state_units", _ETA_UNITS + _V_UNITS + ("rpm",) * len(lag_names))
-        put(self, "input_names", tuple(f"n_r{i + 1}" for i in range(n_thr)))
-        put(self, "input_units", ("rpm",) * n_thr)
+        if self.wrench_input:
+            put(self, "nu", 6)
+            put(self, "input_names", WRENCH_NAMES)
+            put(self, "input_units", WRENCH_UNITS)
+        else:
+            put(self, "nu", n_thr)
+            put(self, "input_names", tuple(f"n_r{i + 1}" for i in range(n_thr)))
+            put(self, "input_units", ("rpm",) * n_thr)
 
     # ------------------------------------------------------------------ attributes
     @property
@@ -731,8 +764,10 @@ class Vehicle(CompiledModel):
 
     def input_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper limits of the inputs, each shape (nu,) (rpm): the thrusters
-        saturate at -n_max and n_max (:func:`sampledyn.simulate` warns beyond them)."""
-        return np.full(self.nu, -self.n_max), np.full(self.nu, self.n_max)
+        saturate at -n_max and n_max (:func:`sampledyn.simulate` warns beyond them);
+        none (+-inf) for a wrench input."""
+        limit = np.inf if self.wrench_input else self.n_max
+        return np.full(self.nu, -limit), np.full(self.nu, limit)
 
     def saturate(self, u: Any) -> np.ndarray:
         """The applied rpm ``clip(u, -n_max, n_max)``, the shape of ``u``."""
@@ -744,6 +779,11 @@ class Vehicle(CompiledModel):
         The rpm are the saturated ``u`` (or the lag states of ``x`` when
         ``thruster_lag``).
         """
+        if self.wrench_input:
+            raise ValueError(
+                "this vehicle's input is the commanded wrench (wrench_input=True): it has "
+                "no thruster forces; use with_params(wrench_input=False) for them."
+            )
         xb = np.atleast_2d(np.asarray(x, dtype=float))
         if xb.shape[-1] != self.nx:
             raise ValueError(f"`x` must have shape (N, {self.nx}), got {np.shape(x)}.")
@@ -779,7 +819,7 @@ class Vehicle(CompiledModel):
         or the inputs), and ``u_i - n_max``, ``u_i + n_max`` (saturation).
         ``input_only`` (bool, shape (6 + 3 N,)) marks the values that depend on u only.
         """
-        nt = self.n_thrusters
+        nt = 0 if self.wrench_input else self.n_thrusters
         input_only = np.array(
             [False] * 6 + [not self.thruster_lag] * nt + [True] * (2 * nt), dtype=bool
         )

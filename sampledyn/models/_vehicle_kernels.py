@@ -47,7 +47,8 @@ _VCN = 32  # current added to eta' (6, NED / Euler-rate frame)
 _DL = 38  # linear damping D_l row-major (36)
 _M = 74  # M row-major (36)
 _MINV = 110  # M^-1 row-major (36)
-_ALLOC = 146  # B (6 N), column i at _ALLOC + 6 i
+_WRENCH = 146  # 1.0 when the input is the commanded wrench tau itself (nu = 6, N = 0)
+_ALLOC = 147  # B (6 N), column i at _ALLOC + 6 i
 
 
 def pack_params(
@@ -70,13 +71,18 @@ def pack_params(
     M: np.ndarray,
     Minv: np.ndarray,
     allocation: np.ndarray,
+    wrench_input: bool = False,
 ) -> np.ndarray:
     """The parameter array ``p`` of the kernels (read-only copy).
 
     ``linear_damping`` is the full D_l, shape (6, 6); ``quadratic_damping`` the
-    diagonal d_q, shape (6,).
+    diagonal d_q, shape (6,). With ``wrench_input`` the thrusters are bypassed: the
+    six inputs are tau of eq. (5) (N, N m, body axes) and ``n_thrusters`` must be 0.
     """
+    if wrench_input and n_thrusters:
+        raise ValueError("`wrench_input` bypasses the thrusters: pack n_thrusters = 0.")
     p = np.zeros(_ALLOC + 6 * n_thrusters)
+    p[_WRENCH] = 1.0 if wrench_input else 0.0
     p[_N] = n_thrusters
     p[_LAG] = 1.0 if lag else 0.0
     p[_TN] = lag_time_constant
@@ -230,6 +236,15 @@ def vehicle_rhs(t, x, u, p, out):  # pragma: no cover - compiled
         + p[_TAUC + 5]
         - _damping_row(x, p, 5)
     )
+
+    # --- commanded wrench, tau of eq. (5) given directly (thrusters bypassed)
+    if p[_WRENCH] > 0.5:
+        r0 += u[0]
+        r1 += u[1]
+        r2 += u[2]
+        r3 += u[3]
+        r4 += u[4]
+        r5 += u[5]
 
     # --- thrusters, eq. (7), tau = B T
     for i in range(nt):
@@ -507,7 +522,8 @@ def vehicle_input_jac(t, x, u, p, out):  # pragma: no cover - compiled
 
     d sat(u)/du is 1 on [-n_max, n_max] and 0 outside. Without the lag option the
     input enters through the thrust, column i = M^-1 B[:, i] dT_i/dn; with it only
-    the lag row, d n_i'/d u_i = 1/T_n.
+    the lag row, d n_i'/d u_i = 1/T_n. A wrench input enters linearly: df_v/dtau =
+    M^-1.
     """
     nt = int(p[_N])
     lag = p[_LAG] > 0.5
@@ -515,6 +531,10 @@ def vehicle_input_jac(t, x, u, p, out):  # pragma: no cover - compiled
     for a in range(out.shape[0]):
         for b in range(out.shape[1]):
             out[a, b] = 0.0
+    if p[_WRENCH] > 0.5:
+        for k in range(6):
+            for j in range(6):
+                out[6 + k, j] = p[_MINV + 6 * k + j]
     for i in range(nt):
         inside = 1.0 if abs(u[i]) <= n_max else 0.0
         if lag:

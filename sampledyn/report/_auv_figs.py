@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..methods import get_method
+from ..methods import Estimator, get_method
 
 __all__ = ["plot_error_vs_order"]
 
@@ -63,7 +63,9 @@ def _panel(
 ) -> None:
     single = [f for f, fr in families.items() if len({r["order"] for r in fr}) == 1]
     markers = dict(zip(single, "osD^v<>pPX*h", strict=False))
-    estimated = {f for f, fr in families.items() if get_method(fr[0]["method"]).estimates_params}
+    estimated = {
+        f for f, fr in families.items() if isinstance(get_method(fr[0]["method"]), Estimator)
+    }
     curves = [f for f in families if f not in markers]
     # Solid curves carry the h_u/h labels; a second solid family gets another line style.
     solid = dict(zip([f for f in curves if f not in estimated], ("-", "-.", ":"), strict=False))

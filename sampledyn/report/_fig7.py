@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..experiments import PAPER_FIG7
-from ..methods import get_method
+from ..methods import get_predictor
 
 __all__ = ["fig7_table", "norm_evidence", "plot_fig7", "ratio_phrase"]
 
@@ -145,7 +145,7 @@ def _figure(summary: Sequence[dict[str, Any]], norm: str, title: str) -> Any:
             # rule far off it (RK4 when h |lambda| leaves its stability region) is drawn
             # as triangles on the top edge, with its largest value in the legend.
             values = [
-                (look[(h, e, v, m)][key], get_method(m).intersample)
+                (look[(h, e, v, m)][key], get_predictor(m).intersample)
                 for e, v in pairs
                 for m in methods
                 if (h, e, v, m) in look

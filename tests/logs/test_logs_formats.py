@@ -145,7 +145,12 @@ def test_bag_mapping_mistakes_are_named(run, tmp_path, edit, message):
 def test_ardusub_dataflash_through_the_documented_command(run, tmp_path, capsys):
     vehicle, traj, c, pwm, rpm = run
     log, cdeg, v_ned = write_dataflash(tmp_path / "00000042.BIN", run)
-    mapping = EXAMPLES / "ardusub_bluerov2_heavy.toml"
+    # a log without parameters: the motor channels and signs given in the mapping
+    mapping = tmp_path / "heavy.toml"
+    mapping.write_text(
+        '[ardusub]\n[ardusub.thrusters]\nchannels = [1, 2, 3, 4, 5, 6, 7, 8]\nunit = "pwm"\n'
+        "voltage = 16\ndirection = [-1, -1, -1, -1, -1, -1, -1, -1]\n"
+    )
     data = read_log(log, vehicle, mapping=mapping)
     tr = data.traj
     # what the log holds, decoded independently: centidegrees, float32 NED, R^T v

@@ -19,19 +19,28 @@ import pytest
 pytest.importorskip("rosbags")
 pytest.importorskip("pymavlink")
 
+from _ardusub_fixtures import BenchRun, TelemetryRun  # noqa: E402
 from _log_fixtures import (  # noqa: E402  (after the optional extras are known)
     simulate_run,
-    write_dataflash,
     write_ros1_bag,
     write_ros2_bag,
 )
+from _ros_fixtures import write_tank_bag  # noqa: E402
+
+
+def _mavlink(path, run):
+    telemetry = TelemetryRun()
+    return telemetry.write_tlog(path) if path.suffix == ".tlog" else telemetry.write_blueos(path)
+
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = (ROOT / "docs" / "logs.md", ROOT / "examples" / "README.md")
 WRITERS = {
     "ros2_bluerov2_heavy.toml": write_ros2_bag,
     "ros1_mavros_bluerov2_heavy.toml": write_ros1_bag,
-    "ardusub_bluerov2_heavy.toml": lambda path, run: write_dataflash(path, run)[0],
+    "ardusub_dataflash.toml": lambda path, run: BenchRun(depth=2.0).write(path),
+    "ardusub_mavlink.toml": _mavlink,
+    "ros2_mavros_rc_override_bluerov2_heavy.toml": lambda path, run: write_tank_bag(path),
 }
 
 

@@ -41,12 +41,12 @@ from ._inputs import check_input as check_input
 from ._inputs import make_input as make_input
 from ._inputs import register_feedback as register_feedback
 from ._inputs import register_input as register_input
-from ._norms import SMOOTH_HISTORY as SMOOTH_HISTORY
 from ._norms import NormSpec as NormSpec
 from ._norms import available_masks as available_masks
 from ._norms import away_from_jumps as away_from_jumps
 from ._norms import away_from_kinks as away_from_kinks
 from ._norms import parse_norm as parse_norm
+from ._norms import smooth_history as smooth_history
 from ._plan import Study as Study
 from ._plan import plan_study as plan_study
 from ._prediction import PREDICTION as PREDICTION
@@ -89,7 +89,6 @@ __all__ = [
     "DASK_WORKER_ENVIRON",
     "DEFAULT_MAX_CELLS",
     "LEASE_SECONDS",
-    "SMOOTH_HISTORY",
     "SUMMARIES",
     "NoiseGrid",
     "NormSpec",
@@ -121,6 +120,7 @@ __all__ = [
     "make_input",
     "motion_summary",
     "parse_norm",
+    "smooth_history",
     "plan_study",
     "prediction_inputs",
     "register_feedback",

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-from ...methods import get_method
+from ...methods import get_method, get_predictor
 from ...models import ClosedLoop
 from ._norms import NormSpec
 
@@ -54,9 +54,10 @@ __all__ = [
 
 
 @lru_cache(maxsize=256)
-def cell_order(method: str) -> int:
-    """Order s of the registered method ``method`` (AB<s>, RK<s>: s; E: 1; T: 2; ...)."""
-    return int(get_method(method).order)
+def cell_order(method: str) -> int | None:
+    """Order s of the registered method ``method`` (AB<s>, RK<s>: s; E: 1; T: 2; ...;
+    None for an exact map, ZOH)."""
+    return get_method(method).order
 
 
 @dataclass(frozen=True)
@@ -212,8 +213,9 @@ class CellKind:
         return dict(options)
 
     def check_method(self, name: str) -> None:
-        """Raise (ValueError, naming it) if ``name`` is no method of this kind."""
-        get_method(name)
+        """Raise (ValueError, naming it) if ``name`` is no method of this kind (here:
+        a rule that predicts on sampled data)."""
+        get_predictor(name, "methods")
 
     def method_order(self, name: str) -> int | None:
         """The order stored with a cell of method ``name`` (None if it has none)."""
