@@ -5,7 +5,11 @@ Dormand-Prince 8(5,3) pair (Hairer, Norsett & Wanner, *Solving ODEs I*, 2nd ed.,
 sec. II.10; the coefficients of Hairer's ``dop853.f``, in :mod:`sampledyn._dop853`), with
 error-controlled steps that never cross a sample time, so an input that jumps at a sample
 time is never integrated across. Where f is not smooth inside an interval (``|v| v`` or
-``n |n|`` crossing zero) the error control shrinks the step there instead of every step.
+``n |n|`` crossing zero) a step ends exactly there; where f jumps (``sign``,
+``Heaviside``, ``Piecewise`` of a state) the state crosses the switching surface or
+slides on it (Filippov). The compiled integrator is :mod:`sampledyn._integrator`; this
+module checks the arguments, runs it in chunks and pauses (Ctrl-C and SIGTERM act
+between them), and turns its stops into errors.
 
 The samples come with a :class:`~sampledyn.Certificate`: every interval is integrated a
 second time, in lockstep, with each accepted step halved, and the difference is the
