@@ -194,21 +194,28 @@ def no_gradient(t, x, u, p, out):  # pragma: no cover - compiled
 def _normal_speeds(rhs, grad, q, pos, k, t, y, U, V, G):  # pragma: no cover - compiled
     """Branches of f on both sides of jump surface k (V[F0]: side -1, V[F0 + 1]: +1)
     at (t, y), and their normal speeds dg_k/dt along each (U holds u and du/dt)."""
-    nx = y.shape[0]
     u = U[U_]
     q[pos] = -1.0
     rhs(t, y, u, q, V[F0])
     q[pos] = 1.0
     rhs(t, y, u, q, V[F0 + 1])
     grad(t, y, u, q, G)
+    return _speeds(G, k, U, V, F0)
+
+
+@njit(inline="always")
+def _speeds(G, k, U, V, row):  # pragma: no cover - compiled
+    """dg_k/dt along the fields V[row] and V[row + 1] (G: the gradients at the point,
+    U[DU]: du/dt)."""
+    nx = V.shape[1]
     c = G[k, nx]
     for j in range(U.shape[1]):
         c += G[k, nx + 1 + j] * U[DU, j]
     s_lo = c
     s_hi = c
     for i in range(nx):
-        s_lo += G[k, i] * V[F0, i]
-        s_hi += G[k, i] * V[F0 + 1, i]
+        s_lo += G[k, i] * V[row, i]
+        s_hi += G[k, i] * V[row + 1, i]
     return s_lo, s_hi
 
 
@@ -438,7 +445,6 @@ def _on_surface(rhs, grad, q, mode, sw_info, U, V, G, k, t, y, st, log):  # prag
     """At a zero of jump k: cross, start sliding, or refuse (see the module notes).
     While sliding on another surface, the two sliding fields (k's side -1 and +1)
     decide. U holds the input and its rate at t. Returns a status."""
-    nx = y.shape[0]
     pos = sw_info[k, 0]
     old = q[pos]
     if mode[0] < 0:
@@ -448,14 +454,7 @@ def _on_surface(rhs, grad, q, mode, sw_info, U, V, G, k, t, y, st, log):  # prag
         _filippov(rhs, grad, q, mode[1], mode[0], t, y, U, V, G, V[F0 + 2])
         q[pos] = 1.0
         _filippov(rhs, grad, q, mode[1], mode[0], t, y, U, V, G, V[F0 + 3])
-        c = G[k, nx]
-        for j in range(U.shape[1]):
-            c += G[k, nx + 1 + j] * U[DU, j]
-        s_lo = c
-        s_hi = c
-        for i in range(nx):
-            s_lo += G[k, i] * V[F0 + 2, i]
-            s_hi += G[k, i] * V[F0 + 3, i]
+        s_lo, s_hi = _speeds(G, k, U, V, F0 + 2)
     d = decide(s_lo, s_hi)
     if d == 1 or d == -1:
         q[pos] = float(d)

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, types
 
 from .._trajectory import Trajectory
-from ..models import JAC_TYPE, RHS_TYPE, RO1, RO2, readonly
+from ..models import JAC_TYPE, RHS_TYPE, RO1, RO2, readonly, refuse_jumps
 from ..noise import add_noise
 from ..simulate import IntegrationError, integrate_intervals, no_gradient, switching
 from ._model import DiscreteModel
@@ -362,14 +362,11 @@ def run_loop(
     if x0.shape != (nx,) or not np.isfinite(x0).all():
         raise ValueError(f"`x0` must be a finite array of shape ({nx},), got {x0.shape}.")
     noise_arr = _noise_array(plant, t, noise, seed, distribution)
-    jumps = getattr(plant, "jump_kernel", None)
-    if jumps is not None and jumps() is not None:
-        raise ValueError(
-            f"`plant` {getattr(plant, 'name', type(plant).__name__)!r} has an f that jumps "
-            "(sign, Heaviside or Piecewise of a state), which the sampled loop does not "
-            "integrate (it has no branches of f, no sliding); simulate it with "
-            "sampledyn.simulate and a ZeroOrderHold of the commands."
-        )
+    refuse_jumps(
+        plant, "plant", "the sampled loop integrates it without the branches of f (no "
+        "crossing, no sliding); simulate it with sampledyn.simulate and a ZeroOrderHold of "
+        "the commands.",
+    )  # fmt: skip
     rhs, p = plant.kernel()
     sw, sp, sw_io = switching(plant)
     X = np.zeros((t.shape[0], nx))

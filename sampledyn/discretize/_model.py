@@ -33,6 +33,7 @@ from ..models import (
     jump_surface_at,
     kernel_import_line,
     load_generated_module,
+    refuse_jumps,
 )
 from ..predict import check_measured
 from ..simulate import switching
@@ -227,13 +228,10 @@ def _module(model: Any, step: Any) -> tuple[Any, Any]:
     body = _BIND + (_BIND_JAC if needs_jac else "")
     kernels = {"_rhs_kernel": rhs, **({"_jac_kernel": jac} if needs_jac else {})}
     if "flow" in step.kernels:
-        jumps = getattr(model, "jump_kernel", None)
-        if jumps is not None and jumps() is not None:
-            raise ValueError(
-                f"{getattr(model, 'name', type(model).__name__)!r} has an f that jumps (sign, "
-                "Heaviside or Piecewise of a state); the exact-flow step integrates one "
-                "interval without its branches. Use sampledyn.simulate for its exact samples."
-            )
+        refuse_jumps(
+            model, "model", "the exact-flow step integrates one interval without the "
+            "branches of f; use sampledyn.simulate for its exact samples.",
+        )  # fmt: skip
         sw, sp, io = switching(model)
         body += _BIND_FLOW.format(sp=[float(v) for v in sp], io=[bool(v) for v in io])
         kernels["_sw_kernel"] = sw

@@ -31,6 +31,7 @@ from ._codegen import import_line as kernel_import_line
 from ._codegen import load_module as load_generated_module
 from ._function import FunctionModel as FunctionModel
 from ._jumps import decide as decide
+from ._jumps import refuse_jumps as refuse_jumps
 from ._jumps import sliding_weight as sliding_weight
 from ._jumps import surface_at as jump_surface_at
 from ._rigid_body import SingularPitchError as SingularPitchError
@@ -62,6 +63,7 @@ __all__ = [
     "load_generated_module",
     "jump_surface_at",
     "load_vehicle",
+    "refuse_jumps",
     "roll_pitch_hold",
     "rotation_jacobian",
     "rotation_jacobian_inverse",

@@ -37,6 +37,7 @@ from ._base import (
     LinearForm,
     _as_batch,
 )
+from ._jumps import refuse_jumps
 
 __all__ = ["ClosedLoop", "FeedbackLaw", "LinearFeedback", "stack_buffer"]
 
@@ -346,14 +347,11 @@ class ClosedLoop(CompiledModel):
                 f"`law` maps {law.nx} states to {law.nu} inputs, the plant has "
                 f"nx={plant.nx} and nu={plant.nu}."
             )
-        jumps = getattr(plant, "jump_kernel", None)
-        if jumps is not None and jumps() is not None:
-            raise ValueError(
-                f"`plant` {getattr(plant, 'name', '')!r} has an f that jumps (sign, Heaviside "
-                "or Piecewise of a state); a ClosedLoop does not carry the plant's branches "
-                "of f, so its simulation could not cross or slide. Write the loop as one "
-                "SymbolicModel (the law substituted for the input)."
-            )
+        refuse_jumps(
+            plant, "plant", "a ClosedLoop does not carry the plant's branches of f, so its "
+            "simulation could not cross or slide; write the loop as one SymbolicModel (the "
+            "law substituted for the input).",
+        )  # fmt: skip
         self.plant = plant
         self.law = law
         self._name = name

@@ -30,7 +30,14 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-__all__ = ["SURFACE_RHS", "decide", "sliding_weight", "surface_at", "surface_source"]
+__all__ = [
+    "SURFACE_RHS",
+    "decide",
+    "refuse_jumps",
+    "sliding_weight",
+    "surface_at",
+    "surface_source",
+]
 
 
 @njit(inline="always")
@@ -151,3 +158,16 @@ def surface_at(model: Any, t: float, x: Any, u: Any) -> str | None:
         if abs(g[k]) <= 1e-12 * scale:
             return str(names[k]) if k < len(names) else f"g[{k}]"
     return None
+
+
+def refuse_jumps(model: Any, argument: str, why: str) -> None:
+    """Raise ValueError if ``model``'s f jumps (it has a branch kernel): for consumers
+    that integrate or compose f without its branches; ``why`` says what they lack and
+    what to use instead."""
+    get = getattr(model, "jump_kernel", None)
+    if get is not None and get() is not None:
+        name = getattr(model, "name", type(model).__name__)
+        raise ValueError(
+            f"`{argument}` {name!r} has an f that jumps (sign, Heaviside or Piecewise of a "
+            f"state): {why}"
+        )
