@@ -34,6 +34,7 @@ LAYERS: dict[str, int] = {
     "sampledyn._dop853": 0,
     "sampledyn._sums": 0,
     "sampledyn._version": 0,
+    "sampledyn._named": 0,
     "sampledyn.models": 1,
     "sampledyn.signals": 1,
     "sampledyn.methods": 2,
