@@ -244,18 +244,20 @@ def get_method(name: Any) -> Method:
     raise ValueError(f"unknown method {name!r}; valid names: {valid}.")
 
 
-def get_predictor(name: Any, argument: str = "method") -> Predictor:
+def get_predictor(name: Any, argument: str | None = "method") -> Predictor:
     """:func:`get_method`, for a rule that predicts on sampled data.
 
     Raises
     ------
     ValueError
-        for a rule that is a discrete-time system only (ZOH), naming ``argument``.
+        for a rule that is a discrete-time system only (ZOH), naming ``argument``
+        (``None``: the caller names it, as :func:`get_method`'s messages leave it to).
     """
     m = get_method(name)
     if not isinstance(m, Predictor):
+        where = "" if argument is None else f"`{argument}` "
         raise ValueError(
-            f"`{argument}` {m.name!r} does not predict on sampled data (it is a discrete-time "
+            f"{where}{m.name!r} does not predict on sampled data (it is a discrete-time "
             "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
             "(`sampledyn methods` lists them)."
         )
