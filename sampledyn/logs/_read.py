@@ -413,7 +413,7 @@ class _Gatherer:
             if factor != 1.0:
                 block[:, j] *= factor
         finite = np.isfinite(block)
-        row_bad = ~finite.all(axis=1)
+        row_bad = np.asarray(~finite.all(axis=1))
         for j, col in enumerate(self.data_cols):
             self.any_finite[col] = self.any_finite[col] or bool(finite[:, j].any())
         for col in self.layout.stray:

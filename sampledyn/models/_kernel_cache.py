@@ -159,7 +159,7 @@ def _prepare(root: Path) -> Path | None:
         try:
             check_private_dir(Path(numba_dir))
         except UnsafeCacheError as exc:
-            exc.strerror = f"{exc.strerror.replace(CACHE_ENV, _NUMBA_ENV)}"
+            exc.strerror = (exc.strerror or "").replace(CACHE_ENV, _NUMBA_ENV)
             raise
     return kernels if _writable(kernels) else None
 
