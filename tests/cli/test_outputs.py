@@ -218,3 +218,19 @@ def test_write_csv_takes_every_rows_keys_and_neutralises_text(tmp_path):
     assert list(back[0]) == ["method", "err", "error"]
     assert back[0]["error"] == "" and back[1]["err"] == ""
     assert back[1]["method"] == "'-cmd|' /C calc'!A0" and back[1]["error"] == "boom"
+
+
+@pytest.mark.slow
+def test_fig7_of_a_vehicle_whose_cells_fail_writes_its_tables(tmp_path):
+    """The audit's case: a BlueROV2 Heavy file under another name runs open loop (no
+    attitude hold for it), tumbles, and some cells fail; the runs table then has an
+    ``error`` column that the first row lacks, and is written (it crashed)."""
+    vehicle = tmp_path / "my_rov.toml"
+    shutil.copy(VEHICLE / "bluerov2_heavy.toml", vehicle)
+    out = tmp_path / "fig7"
+    args = ["reproduce", "fig7", "--vehicle", str(vehicle), "--T", "100", "--after", "20",
+            "--seeds", "1", "--workers", "1", "--out", str(out)]  # fmt: skip
+    assert main(args) == 0
+    runs = list(csv.DictReader((out / "fig7_runs.csv").open()))
+    failed = [r for r in runs if r["error"]]
+    assert "error" in runs[0] and failed and len(failed) < len(runs)
