@@ -59,7 +59,7 @@ from scipy.integrate import solve_ivp
 
 import sampledyn as sd
 from sampledyn.experiments import fig7_vehicle
-from sampledyn.simulate import _input_at, switching
+from sampledyn._simulate import _input_at, switching
 
 H = 0.1
 OURS_TOL = 1e-11  # the Fig. 7 setting of `reproduce fig7`

@@ -6,14 +6,10 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
+from .exceptions import NumericalError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = ["Certificate", "Trajectory", "steps_on_grid", "uniform_grid"]
 
-
-class NumericalError(RuntimeError):
-    """A numerical method failed on these inputs (an implicit rule's Newton iteration
-    did not converge, the exact-sample integrator could not meet its tolerance); the
-    message says what to change (a smaller h, another rule, a looser tolerance)."""
 
 
 def _frozen(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:

@@ -148,7 +148,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     """Add the ``evaluate`` command to the subparsers ``sub``."""
-    from ..errors import ERROR_NORMS
+    from .._local_errors import ERROR_NORMS
     from ..logs import GAP_POLICIES, TIME_TOLERANCE
 
     ev = sub.add_parser(

@@ -13,6 +13,7 @@ import signal
 from typing import Any
 
 from .._trajectory import NumericalError
+from ..exceptions import UsageError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = [
     "EXIT_BAD_VALUE",
@@ -63,10 +64,6 @@ EXIT_STATUSES: dict[int, str] = {
     EXIT_TERMINATED: "terminated (SIGTERM); finished results are kept",
 }
 
-
-class UsageError(Exception):
-    """An option that does not apply, or a combination of options that does not
-    make sense (exit status 2)."""
 
 
 class Terminated(KeyboardInterrupt):

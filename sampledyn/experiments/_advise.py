@@ -31,7 +31,7 @@ import numpy as np
 
 from .._trajectory import Trajectory
 from ..models import ClosedLoop, Vehicle
-from ..noise import noise_amplitudes
+from .._noise import noise_amplitudes
 from ..sensitivity import (
     RANK_BY,
     Domain,

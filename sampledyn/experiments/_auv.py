@@ -90,7 +90,7 @@ class AUVStudy:
     seed : int
         Seed of the multilevel input.
     norm : str
-        The norm of the first panel and table (:data:`sampledyn.errors.ERROR_NORMS`).
+        The norm of the first panel and table (:data:`sampledyn._local_errors.ERROR_NORMS`).
     low, high : float
         Range of the input levels.
     x0 : tuple of float
@@ -112,7 +112,7 @@ class AUVStudy:
     model: Any = field(default_factory=_auv_like)
 
     def __post_init__(self) -> None:
-        from ..errors import ERROR_NORMS
+        from .._local_errors import ERROR_NORMS
 
         for r in self.ratios:
             if isinstance(r, bool) or not isinstance(r, int) or r < 1:
@@ -128,8 +128,8 @@ class AUVStudy:
 def auv_config(study: AUVStudy) -> Any:
     """The study as a grid of the engine (a checked
     :class:`~sampledyn.experiments.sweep.SweepConfig`): one multilevel input per h_u/h,
-    no noise, the norms of :data:`sampledyn.errors.ERROR_NORMS` and the two masked rms."""
-    from ..errors import ERROR_NORMS
+    no noise, the norms of :data:`sampledyn._local_errors.ERROR_NORMS` and the two masked rms."""
+    from .._local_errors import ERROR_NORMS
     from .sweep import SweepConfig
 
     inputs = tuple(
@@ -229,7 +229,7 @@ def run_auv_study(
     Returns
     -------
     list of dict, one per (hold ratio, method), with keys ``hold_ratio``, ``method``,
-    ``order``, the norms of :data:`sampledyn.errors.ERROR_NORMS` (over both states,
+    ``order``, the norms of :data:`sampledyn._local_errors.ERROR_NORMS` (over both states,
     t >= after), ``rms_away_from_jumps`` (rms over the samples whose prediction
     history holds no input jump; NaN when h_u/h is too short to have any),
     ``rms_smooth`` (same, also away from zero crossings of the model's kink states), ``h``,

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..noise import noise_amplitudes
+from .._noise import noise_amplitudes
 from ..sensitivity import (
     Domain,
     ErrorBound,

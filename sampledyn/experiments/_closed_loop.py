@@ -5,7 +5,7 @@ fully actuated layout, so the LQR holds roll and pitch itself and no attitude ho
 needed), each sampled-data rule and each sampling period, the same discrete LQR is
 designed on the rule's discrete-time model (:func:`sampledyn.discretize`) linearised at
 the trim for a depth / heading / surge hold, and run against the exact plant
-(:func:`sampledyn.discretize.run_loop`: input held between samples, thrusters
+(:func:`sampledyn.run_loop`: input held between samples, thrusters
 saturating at n_max inside the plant) with the paper's measurement noise. Measured:
 the tracking residual set (95th and 100th percentile of |depth|, |heading| and |surge|
 error after the transient) and the control effort. A design on the exact zero-order
@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from ..discretize import LinearLaw, check_rule, discretize, run_loop
+from .._discretize import LinearLaw, check_rule, discretize, run_loop
 from ..methods import get_method
 from ._studies import StudyDefinition
 from .sweep import (
@@ -372,7 +372,7 @@ class ClosedLoopCells(CellKind):
     Shared: the trim (once per study, on the client), and per h the LQR design on
     every rule and each rule's one-step error on the ZOH loop's motion (once per h,
     on one worker). A cell: one (rule, noise pair, seed) run of its design on the
-    exact plant (:func:`sampledyn.discretize.run_loop`), measured as the residual set
+    exact plant (:func:`sampledyn.run_loop`), measured as the residual set
     after the transient (``after``) and the effort; a diverged run is a result
     (``outcome`` "diverged: ..."), not a failed cell.
 

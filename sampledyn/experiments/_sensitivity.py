@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..noise import noise_amplitudes
+from .._noise import noise_amplitudes
 from ..sensitivity import (
     Domain,
     ErrorCurves,

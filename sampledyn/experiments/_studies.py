@@ -32,7 +32,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import ERROR_NORMS
+from .._local_errors import ERROR_NORMS
 
 __all__ = [
     "SHARED",

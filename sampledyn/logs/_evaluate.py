@@ -10,12 +10,12 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import error_norm, error_window, local_errors
-from ..estimate import EstimationResult
+from .._local_errors import error_norm, error_window, local_errors
+from .._estimate import EstimationResult
 from ..methods import Estimator, fixed_step, get_method, get_predictor, stencil_steps
 from ..models import JacobianUnavailableError
-from ..noise import NOISE_REFERENCE
-from ..predict import predict
+from .._noise import NOISE_REFERENCE
+from .._predict import predict
 from ..sensitivity import fastest_time_constant
 from ._read import LogData
 from ._time import TIME_UNITS

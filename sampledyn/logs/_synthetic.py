@@ -77,8 +77,8 @@ def synthetic_log(
     import pandas as pd
 
     from ..models import load_vehicle
-    from ..noise import add_noise
-    from ..simulate import simulate
+    from .._noise import add_noise
+    from .._simulate import simulate
 
     model = load_vehicle(vehicle)
     if jitter > 0:

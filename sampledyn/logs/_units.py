@@ -4,17 +4,10 @@ from __future__ import annotations
 
 import math
 import re
+from ..exceptions import LogFormatError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = ["CONVERSIONS", "LogFormatError", "conversion_factor", "split_header"]
 
-
-class LogFormatError(ValueError):
-    """A log that cannot be used as it is; ``argument`` names the culprit (a column,
-    "t", or the option to change)."""
-
-    def __init__(self, argument: str, message: str) -> None:
-        super().__init__(message)
-        self.argument = argument
 
 
 _DEG = math.pi / 180.0

@@ -41,14 +41,12 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import NumericalError
+from ..exceptions import ConvergenceError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = ["Combination", "ConvergenceError", "Stage", "StepProgram", "stage_jacobians"]
 
 Ref = tuple[str, int]
 
-
-class ConvergenceError(NumericalError):
-    """An implicit rule's Newton iteration did not converge."""
 
 
 @dataclass(frozen=True)

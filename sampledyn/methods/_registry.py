@@ -188,11 +188,11 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
         "jump (order s across jumps), s >= 1", 6, None,
     ),
     (
-        "Ee", r"Ee", "sampledyn.estimate._estimated:estimated_euler",
+        "Ee", r"Ee", "sampledyn._estimate._estimated:estimated_euler",
         "estimated Euler (= ABe1)", None, None,
     ),
     (
-        "ABe<s>", r"ABe(\d+)", "sampledyn.estimate._estimated:EstimatedAdamsBashforth",
+        "ABe<s>", r"ABe(\d+)", "sampledyn._estimate._estimated:EstimatedAdamsBashforth",
         "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1", 6, None,
     ),
     (

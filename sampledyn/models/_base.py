@@ -16,6 +16,7 @@ import numpy as np
 from numba import float64, njit, types
 
 from ._codegen import batch_functions
+from ..exceptions import JacobianUnavailableError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = [
     "BATCH_JAC_SIG",
@@ -169,10 +170,6 @@ def batch_eval(kernel: Callable[..., None], p: Any, t: Any, x: Any, u: Any, nx: 
         out = _batch_rhs(kernel, readonly(t), readonly(x), readonly(u), readonly(p))
     return out[0] if single else out
 
-
-class JacobianUnavailableError(NotImplementedError):
-    """The model has no exact Jacobian (sampledyn never falls back to finite
-    differences); the message says how to supply one."""
 
 
 class LinearForm:

@@ -63,6 +63,7 @@ from ._vehicle_kernels import (
     vehicle_rhs,
     vehicle_switch,
 )
+from ..exceptions import VehicleParameterError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "VehicleParameterError", "symmetrized"]
 
@@ -141,13 +142,6 @@ PARAM_UNITS: dict[str, str] = {
     "T_n": "s",
 }
 
-
-class VehicleParameterError(ValueError):
-    """A bad vehicle parameter; ``argument`` names the constructor argument."""
-
-    def __init__(self, argument: str, message: str) -> None:
-        super().__init__(message)
-        self.argument = argument
 
 
 def _array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) -> np.ndarray:

@@ -41,9 +41,9 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..errors import sum_of_squares
+from .._local_errors import sum_of_squares
 from ..methods import fixed_step, stencil_steps
-from ..noise import NOISE_REFERENCE, noise_amplitudes
+from .._noise import NOISE_REFERENCE, noise_amplitudes
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
 from ._jacobians import JacobianReport, _jacobian_bounds
@@ -248,7 +248,7 @@ def block_error_norms(errors: np.ndarray, state_units: Any = None) -> tuple[np.n
     """
     e = np.asarray(errors, dtype=float)
     eta, v = (ETA, V) if state_units is None else state_blocks(state_units)
-    # The sum of squares as sampledyn.errors.error_norm forms it, so a bound built from
+    # The sum of squares as sampledyn.error_norm forms it, so a bound built from
     # these norms and an error measured by the engine compare to the last bit.
     return np.sqrt(sum_of_squares(e, eta)), np.sqrt(sum_of_squares(e, v))
 
@@ -387,7 +387,7 @@ def disturbed_error_bound(
         Sampling period (s).
     eta_pct, v_pct : float
         Uniform noise levels, % of 1 m / 30 deg and of 1 m/s / 30 deg/s
-        (:func:`sampledyn.noise.noise_amplitudes`).
+        (:func:`sampledyn._noise.noise_amplitudes`).
     domain : Domain, optional
         Box of the clean states for the Jacobian maxima; default: the smallest box
         holding the reference run (and its input).

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..noise import noise_amplitudes
+from .._noise import noise_amplitudes
 from ._bound import assemble_bound, jacobian_pair, subsample
 from ._domain import Domain
 from ._gains import supported_method

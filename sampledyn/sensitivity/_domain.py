@@ -143,7 +143,7 @@ class Domain:
         ----------
         amplitudes : array_like, shape (12,)
             Noise amplitude of each state component (eta then v, state units), as
-            from :func:`sampledyn.noise.noise_amplitudes`.
+            from :func:`sampledyn._noise.noise_amplitudes`.
 
         Raises
         ------

@@ -31,7 +31,7 @@ from sampledyn.cli import (
     build_parser,
     main,
 )
-from sampledyn.errors import ERROR_NORMS
+from sampledyn._local_errors import ERROR_NORMS
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_LOG = ROOT / "examples" / "rov_log.csv"

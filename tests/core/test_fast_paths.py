@@ -84,7 +84,7 @@ def test_the_integrator_uses_the_whole_table():
     """The arrays the compiled integrator freezes into its code are SciPy's 12 stages."""
     from scipy.integrate._ivp import dop853_coefficients as ref
 
-    sim_module = importlib.import_module("sampledyn.simulate")
+    sim_module = importlib.import_module("sampledyn._simulate")
     n = ref.N_STAGES
     for ours, theirs in (
         (sim_module._A, ref.A[:n, :n]),
@@ -134,7 +134,7 @@ def _old_error_norms(errors, t, kinds, after=None, components=None, where=None):
 @pytest.mark.parametrize("grid", ["uniform", "jittered", "unsorted"])
 @pytest.mark.filterwarnings("ignore:invalid value encountered in sqrt")
 def test_error_norms_on_a_window_equal_the_former_ones_bit_for_bit(grid):
-    from sampledyn.errors import ERROR_NORMS, error_norms, error_window
+    from sampledyn._local_errors import ERROR_NORMS, error_norms, error_window
 
     rng = np.random.default_rng(3)
     n = 5000
@@ -163,7 +163,7 @@ def test_error_norms_on_a_window_equal_the_former_ones_bit_for_bit(grid):
 def test_sum_of_squares_orders():
     """Index sets: the sum from the first index on, each square rounded (what numpy's
     einsum gives on the gathered columns); slices: einsum of the rows."""
-    from sampledyn.errors import sum_of_squares
+    from sampledyn._local_errors import sum_of_squares
 
     rng = np.random.default_rng(5)
     e = rng.standard_normal((20000, 12)) * np.exp(rng.uniform(-30, 30, (20000, 12)))
@@ -219,7 +219,7 @@ def test_rk_with_the_shared_cache_is_rk_without(rexrov_data):
 def test_add_noise_is_the_former_formula(rexrov_data):
     import math
 
-    from sampledyn.noise import NOISE_REFERENCE, noise_amplitudes
+    from sampledyn._noise import NOISE_REFERENCE, noise_amplitudes
 
     veh, _sig, data = rexrov_data
     clean = data.clean
@@ -290,7 +290,7 @@ def test_pitch_check_of_a_batch_is_the_full_check():
 
 
 def test_local_errors_into_the_prediction(rexrov_data):
-    from sampledyn.errors import local_errors
+    from sampledyn._local_errors import local_errors
 
     veh, _sig, data = rexrov_data
     x_hat = sd.predict("AB4", veh, data)

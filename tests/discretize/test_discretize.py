@@ -8,7 +8,7 @@ import pytest
 import sympy as sp
 
 import sampledyn as sd
-from sampledyn.discretize import LinearLaw, casadi_rhs, discretize, run_loop
+from sampledyn._discretize import LinearLaw, casadi_rhs, discretize, run_loop
 from sampledyn.models import AttitudeHold, AUVLike, SymbolicModel, load_vehicle
 from sampledyn.signals import fig6_thrusters
 
@@ -393,7 +393,7 @@ def test_state_from_history_equals_state_from_data(rexrov, measured):
 
 
 def test_envelope_stops_a_diverging_loop(rexrov):
-    from sampledyn.discretize import EnvelopeExceeded
+    from sampledyn._discretize import EnvelopeExceeded
 
     lo = np.full(12, -np.inf)
     hi = np.full(12, np.inf)
@@ -413,7 +413,7 @@ def test_noise_gain_feeds_dlqe(rexrov):
     accepts (A_d, G, C) and returns a stable estimator."""
     control = pytest.importorskip("control")
     from sampledyn.experiments import trim
-    from sampledyn.noise import noise_amplitudes
+    from sampledyn._noise import noise_amplitudes
 
     x, u = trim(rexrov, 0.5, 5.0, 0.5)
     d = discretize(rexrov, "AB2", 0.1)

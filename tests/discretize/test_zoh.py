@@ -10,7 +10,7 @@ from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
 import sampledyn as sd
-from sampledyn.discretize import discretize
+from sampledyn._discretize import discretize
 from sampledyn.methods import DiscreteTimeSystem, Predictor, get_method
 from sampledyn.models import SymbolicModel, load_vehicle
 

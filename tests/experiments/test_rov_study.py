@@ -8,7 +8,7 @@ import pytest
 
 import sampledyn as sd
 from sampledyn.experiments import ROVStudy, fig7_vehicle, motion_summary, run_rov_study
-from sampledyn.noise import noise_amplitudes
+from sampledyn._noise import noise_amplitudes
 from sampledyn.report import fig7_table, norm_evidence, ratio_phrase
 from sampledyn.signals import FIG6_TABLE
 

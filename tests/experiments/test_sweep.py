@@ -137,7 +137,7 @@ def test_failed_cells_are_stored_with_their_error_and_retried_on_request(tmp_pat
 
 def test_failed_exact_samples_fail_their_cells_only(tmp_path, monkeypatch):
     import sampledyn.experiments.sweep._compute as compute
-    from sampledyn.simulate import IntegrationError
+    from sampledyn._simulate import IntegrationError
 
     real = compute.simulate
 

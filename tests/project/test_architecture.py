@@ -35,16 +35,18 @@ LAYERS: dict[str, int] = {
     "sampledyn._sums": 0,
     "sampledyn._version": 0,
     "sampledyn._named": 0,
+    "sampledyn._checks": 0,
+    "sampledyn.exceptions": 0,
     "sampledyn.models": 1,
     "sampledyn.signals": 1,
     "sampledyn.methods": 2,
-    "sampledyn.simulate": 3,
-    "sampledyn.noise": 3,
-    "sampledyn.errors": 3,
-    "sampledyn.predict": 3,
+    "sampledyn._simulate": 3,
+    "sampledyn._noise": 3,
+    "sampledyn._local_errors": 3,
+    "sampledyn._predict": 3,
     "sampledyn.sensitivity": 4,
-    "sampledyn.estimate": 4,
-    "sampledyn.discretize": 5,
+    "sampledyn._estimate": 4,
+    "sampledyn._discretize": 5,
     "sampledyn.logs": 5,
     "sampledyn.experiments": 6,
     "sampledyn.report": 7,
@@ -209,5 +211,5 @@ def test_graph_sees_imports_inside_functions(tmp_path):
     tree = ast.parse(src)
     assert any(isinstance(n, ast.ImportFrom) for n in ast.walk(tree))
     assert "sampledyn.experiments" in {
-        _resolve("sampledyn.errors", n) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+        _resolve("sampledyn._noise", n) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
     }

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 import sampledyn as sd
 from sampledyn.experiments import inertia_sensitivity, monte_carlo_check
-from sampledyn.noise import noise_amplitudes
+from sampledyn._noise import noise_amplitudes
 from sampledyn.sensitivity import (
     Domain,
     J_norm,

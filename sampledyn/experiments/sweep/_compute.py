@@ -38,12 +38,12 @@ from typing import Any
 import numpy as np
 
 from ..._trajectory import Trajectory
-from ...errors import local_errors
+from ..._local_errors import local_errors
 from ...methods import ConvergenceError, get_method
 from ...models import ClosedLoop
-from ...noise import add_noise
-from ...predict import predict
-from ...simulate import IntegrationError, simulate
+from ..._noise import add_noise
+from ..._predict import predict
+from ..._simulate import IntegrationError, simulate
 from ._cells import Chunk, Group, Setup, SimPlan
 from ._norms import NormSpec, measure, parse_norm
 from ._summaries import summarize_trajectory

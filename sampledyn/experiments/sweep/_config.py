@@ -65,6 +65,7 @@ from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
 from ._summaries import SUMMARIES
+from ...exceptions import SweepConfigError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = [
     "DEFAULT_MAX_CELLS",
@@ -142,13 +143,6 @@ class NoiseGrid(Sequence[tuple[float, float]]):
     def count(self, pair: Any) -> int:
         return int(pair in self)
 
-
-class SweepConfigError(ValueError):
-    """A bad sweep file; ``key`` names the offending entry."""
-
-    def __init__(self, key: str, message: str) -> None:
-        super().__init__(message)
-        self.key = key
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ A norm is written as a string::
 
     [noise:]KIND[(ARG, ...)][[UNIT, ...]][@MASK[(ARG, ...)]]
 
-* ``KIND``: a norm of :data:`sampledyn.errors.ERROR_NORMS` (``rms``, ``max``,
+* ``KIND``: a norm of :data:`sampledyn._local_errors.ERROR_NORMS` (``rms``, ``max``,
   ``l2_over_n``, ``l2``, ``mean``) of the per-sample Euclidean error norm, or
   ``exceeds(A, B)``: the number of samples whose position/angle error exceeds ``A``
   or whose rate error exceeds ``B`` (used to check a bound sample by sample).
@@ -35,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
+from ..._local_errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
 from ...methods import Predictor, available_methods, get_method
-from ...noise import NOISE_REFERENCE
+from ..._noise import NOISE_REFERENCE
 
 __all__ = [
     "NormSpec",

@@ -69,6 +69,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from ...exceptions import NotAStoreError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = [
     "APPLICATION_ID",
@@ -176,9 +177,6 @@ _CLAIM_COLUMNS = (
 _TABLES = ("cells", "trajectories", "runs")
 _BATCH = 500  # keys per SQL statement (SQLite's variable limit is 32766 since 3.32)
 
-
-class NotAStoreError(ValueError):
-    """A file that is not a sampledyn results store; it was left untouched."""
 
 
 @dataclass(frozen=True)

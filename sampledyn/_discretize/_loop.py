@@ -9,10 +9,10 @@ command of the previous sample (a computation delay of one sample).
 Why here and not in :func:`sampledyn.simulate`: ``simulate`` integrates a known input
 signal and certifies the samples; in a loop the input of an interval depends on the
 samples before it, so the integration goes interval by interval, and a controller
-designed on a discrete-time model (:class:`~sampledyn.discretize.DiscreteModel`) builds
+designed on a discrete-time model (:class:`~sampledyn.DiscreteModel`) builds
 its state z from the measured history the way that model's rule does. Both are facts
 of this layer. The loop calls the simulator's compiled interval integrator
-(:data:`sampledyn.simulate.integrate_intervals`) from compiled code: a
+(:data:`sampledyn._simulate.integrate_intervals`) from compiled code: a
 :class:`LinearLaw` (gain matrix and references as data) runs without any Python call
 per sample; any other controller is a Python callable, called once per sample.
 """
@@ -29,16 +29,13 @@ from numba import njit, types
 
 from .._trajectory import Trajectory
 from ..models import RHS_TYPE, RO1, RO2, readonly
-from ..noise import add_noise
-from ..simulate import IntegrationError, integrate_intervals, switching
+from .._noise import add_noise
+from .._simulate import IntegrationError, integrate_intervals, switching
 from ._model import DiscreteModel
+from ..exceptions import EnvelopeExceeded  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = ["EnvelopeExceeded", "LinearLaw", "LoopRun", "run_loop"]
 
-
-class EnvelopeExceeded(RuntimeError):
-    """The sampled loop left the state envelope given to :func:`run_loop` (it is
-    diverging); the message names the time and the states."""
 
 
 _F = types.float64
@@ -329,7 +326,7 @@ def run_loop(
     EnvelopeExceeded
         if the state leaves ``envelope``.
     """
-    from ..simulate import _check_period  # the simulator's own check of (h, T)
+    from .._simulate import _check_period  # the simulator's own check of (h, T)
 
     n_int = _check_period(h, T)
     t = np.arange(n_int + 1, dtype=float) * float(h)

@@ -33,8 +33,8 @@ from ..models import (
     kernel_import_line,
     load_generated_module,
 )
-from ..predict import check_measured
-from ..simulate import switching
+from .._predict import check_measured
+from .._simulate import switching
 
 __all__ = ["DiscreteModel", "check_rule", "discretize"]
 
@@ -60,7 +60,7 @@ jac = njit(inline="always", error_model="numpy")(_jac_kernel.py_func)
 # compiled Dormand-Prince 8 interval integrator with kink location, on the model's
 # kernel and switching function; NaN where it fails.
 _BIND_FLOW = """
-from sampledyn.simulate import integrate_intervals as _integrate_intervals
+from sampledyn._simulate import integrate_intervals as _integrate_intervals
 
 # The integrator takes the model's kernels as function pointers, which numba's disk
 # cache cannot keep: this module compiles in each process.
@@ -543,7 +543,7 @@ class DiscreteModel:
         point of a Kalman filter design). Then ``G = A_d S`` with S that block map.
         For ``control.dlqe(A_d, G, C, Q_N, R_N)`` Q_N is the covariance of the stacked
         delta (e.g. ``kron(I, diag(a**2 / 3))`` for uniform noise of amplitude a,
-        :func:`sampledyn.noise.noise_amplitudes`).
+        :func:`sampledyn._noise.noise_amplitudes`).
         """
         z, u = self._vectors(z, u)
         nx = self.nx
@@ -584,7 +584,7 @@ class DiscreteModel:
 
     def to_casadi(self) -> Any:
         """``casadi.Function`` F(z, u) -> z+ (``pip install 'sampledyn[control]'``);
-        see :func:`sampledyn.discretize.casadi_rhs` for which models it supports."""
+        see :func:`sampledyn._discretize.casadi_rhs` for which models it supports."""
         from ._casadi import discrete_function
 
         return discrete_function(self)

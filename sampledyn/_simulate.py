@@ -26,6 +26,7 @@ from ._trajectory import Certificate, NumericalError, Trajectory
 from .models import RHS_TYPE, RO1, RO2, readonly
 from .models import index_switch as _index_switch
 from .signals import Signal
+from .exceptions import IntegrationError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = ["IntegrationError", "integrate_intervals", "simulate", "switching"]
 
@@ -40,9 +41,6 @@ _E5 = np.ascontiguousarray(_dop.E5)
 # Sampling intervals per call of the compiled integrator.
 _CHUNK = 1 << 15
 
-
-class IntegrationError(NumericalError):
-    """The exact-sample integrator could not meet its tolerance."""
 
 
 @njit(cache=True)
@@ -757,5 +755,5 @@ def _nodes(signal: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
 
 # The compiled interval integrator under a public name: a sampled loop integrates one
 # sampling interval at a time, with the held input computed from the samples before it
-# (sampledyn.discretize.run_loop calls it from compiled code).
+# (sampledyn.run_loop calls it from compiled code).
 integrate_intervals = _integrate

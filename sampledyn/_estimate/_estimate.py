@@ -14,7 +14,7 @@ affine in theta: ``e_k = b_k - A_k theta`` with
     A_k = h sum_i a_i Phi_{k-1-i},    b_k = x_k - x_{k-1} - h sum_i a_i f0_{k-1-i}.
 
 Stacking the rows of all samples in the window gives a linear l_p regression, solved
-exactly (:mod:`sampledyn.estimate._linear`). Other structures (RK_s, Tustin) and
+exactly (:mod:`sampledyn._estimate._linear`). Other structures (RK_s, Tustin) and
 parameters that enter f nonlinearly are fitted by ``scipy.optimize.least_squares``
 (p = 2 only).
 """
@@ -32,7 +32,7 @@ import numpy as np
 
 from .._trajectory import Trajectory
 from ..methods import Estimator, Predictor, ab_filter, get_method, get_predictor, uniform_step
-from ..predict import check_measured
+from .._predict import check_measured
 from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
 __all__ = ["EstimationResult", "estimate", "estimate_and_predict"]
@@ -363,7 +363,7 @@ def estimate(
     ``numpy.linalg.lstsq``; p = 1 and p = inf by linear programming (HiGHS); other p by
     IRLS with smoothing ``|r| -> sqrt(r**2 + eps**2)``, eps = 1e-7 times the largest
     least-squares residual, and a monotone line search (converges; see
-    :mod:`sampledyn.estimate._linear`). RK_s, T, or parameters entering f
+    :mod:`sampledyn._estimate._linear`). RK_s, T, or parameters entering f
     nonlinearly: ``scipy.optimize.least_squares`` from the model's values, p = 2.
 
     **Accuracy on exact samples.** The one-step errors of AB_s are O(h**(s+1)) per
