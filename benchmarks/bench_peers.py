@@ -58,8 +58,8 @@ from _rows import write_json
 from scipy.integrate import solve_ivp
 
 import sampledyn as sd
-from sampledyn.experiments import fig7_vehicle
 from sampledyn._simulate import _input_at, switching
+from sampledyn.experiments._rov import fig7_vehicle
 
 H = 0.1
 OURS_TOL = 1e-11  # the Fig. 7 setting of `reproduce fig7`

@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from ._trajectory import NumericalError, Trajectory
+from ._trajectory import Trajectory
+from .exceptions import NumericalError, SingularPitchError
 from .methods import get_predictor
-from .models import SingularPitchError
 
 __all__ = ["predict"]
 

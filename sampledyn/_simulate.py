@@ -21,14 +21,15 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
+from . import _checks as checks
 from . import _dop853 as _dop
-from ._trajectory import Certificate, NumericalError, Trajectory
-from .models import RHS_TYPE, RO1, RO2, readonly
-from .models import index_switch as _index_switch
+from ._trajectory import Certificate, Trajectory
+from .exceptions import ArgumentError, IntegrationError
+from .models._base import RHS_TYPE, RO1, RO2, readonly
+from .models._base import index_switch as _index_switch
 from .signals import Signal
-from .exceptions import IntegrationError  # noqa: F401  (re-exported until the API is curated)
 
-__all__ = ["IntegrationError", "integrate_intervals", "simulate", "switching"]
+__all__ = ["integrate_intervals", "simulate", "switching"]
 
 _NS = _dop.N_STAGES
 _A = np.ascontiguousarray(_dop.A)
@@ -40,7 +41,6 @@ _E5 = np.ascontiguousarray(_dop.E5)
 
 # Sampling intervals per call of the compiled integrator.
 _CHUNK = 1 << 15
-
 
 
 @njit(cache=True)
@@ -450,20 +450,19 @@ class _InputLimits:
         )
 
 
-def _check_period(h: Any, T: Any) -> int:
-    for name, v in (("h", h), ("T", T)):
-        if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
-            raise TypeError(f"`{name}` must be a number (s), got {type(v).__name__}.")
-        if not math.isfinite(v):
-            raise ValueError(f"`{name}` must be finite, got {v}.")
-    if h <= 0:
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
+def check_period(h: Any, T: Any) -> int:
+    """The number of sampling intervals n = T / h of a run, after checking ``h`` (a
+    sampling period) and ``T`` (at least h, an integer multiple of it)."""
+    h = checks.period(h)
+    T = checks.number(T, "T", unit="s")
     if T < h:
-        raise ValueError(f"duration `T` = {T} s must be at least one sampling period h = {h} s.")
-    n = round(T / h)
-    if abs(n * h - T) > 1e-9 * T:
-        raise ValueError(f"`T` = {T} s must be an integer multiple of `h` = {h} s.")
-    return int(n)
+        raise ArgumentError(
+            "T", f"duration `T` = {T} s must be at least one sampling period h = {h} s."
+        )
+    n = checks.integer_ratio(T, h)
+    if n is None:
+        raise ArgumentError("T", f"`T` = {T} s must be an integer multiple of `h` = {h} s.")
+    return n
 
 
 def simulate(
@@ -523,7 +522,7 @@ def simulate(
     jump). Memory: about the returned arrays plus one N x nx array of differences
     when certifying.
     """
-    n_int = _check_period(h, T)
+    n_int = check_period(h, T)
     if not hasattr(model, "kernel"):
         raise TypeError(
             "`model` must provide a compiled kernel (a sampledyn model), "
@@ -537,11 +536,7 @@ def simulate(
     signal.check_sampling(float(h))
     if x0 is None:
         x0 = model.default_x0
-    x0 = np.asarray(x0, dtype=float)
-    if x0.shape != (model.nx,):
-        raise ValueError(f"`x0` must have shape ({model.nx},), got {x0.shape}.")
-    if not np.isfinite(x0).all():
-        raise ValueError("`x0` holds NaN or inf.")
+    x0 = checks.finite_array(x0, "x0", (model.nx,))
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
 

@@ -21,20 +21,19 @@ and ``rollout`` runs over all samples in compiled code.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
-from .._trajectory import Trajectory
-from ..methods import DiscreteTimeSystem, Estimator, get_method, uniform_step
-from ..models import (
-    JacobianUnavailableError,
-    kernel_import_line,
-    load_generated_module,
-)
+from .. import _checks as checks
 from .._predict import check_measured
 from .._simulate import switching
+from .._trajectory import Trajectory
+from ..exceptions import ArgumentError, JacobianUnavailableError
+from ..methods import DiscreteTimeSystem, Estimator, get_method
+from ..methods._base import uniform_step
+from ..models._codegen import import_line as kernel_import_line
+from ..models._codegen import load_module as load_generated_module
 
 __all__ = ["DiscreteModel", "check_rule", "discretize"]
 
@@ -246,14 +245,6 @@ def _finite(v: np.ndarray, name: str) -> None:
         )
 
 
-def _check_h(h: Any) -> float:
-    if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
-        raise TypeError(f"sampling period `h` must be a number (s), got {type(h).__name__}.")
-    if not (math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be a finite number > 0 s, got {h}.")
-    return float(h)
-
-
 class DiscreteModel:
     """A sampled-data rule applied to a model: the discrete-time system z+ = F(z, u).
 
@@ -288,7 +279,7 @@ class DiscreteModel:
         self.model = model
         self.method = rule
         self.step_data = rule.discrete_step
-        self.h = _check_h(h)
+        self.h = checks.period(h)
         self.delay = bool(delay)
         self.layout = tuple(self.step_data.layout)
         self.nx = int(model.nx)
@@ -376,13 +367,13 @@ class DiscreteModel:
         """
         check_measured(self.model, measured)
         h = uniform_step(measured, self.method.name)
-        if abs(h - self.h) > 1e-9 * self.h:
-            raise ValueError(
+        if not checks.same_period(h, self.h):
+            raise ArgumentError(
+                "measured",
                 f"`measured` is sampled with h={h:g} s, this model with h={self.h:g} s; "
-                "discretize with the data's period."
+                "discretize with the data's period.",
             )
-        if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-            raise ValueError(f"`k` must be an integer >= 1 (steps ahead), got {k!r}.")
+        k = checks.count(k, "k", what="steps ahead")
         mod = self._kernels()
         out = np.full((measured.n_samples, self.nx), np.nan)
         fn = compiled_kernel(mod, "rollout_f" if hasattr(mod, "rollout_f") else "rollout")

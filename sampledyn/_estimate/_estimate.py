@@ -30,9 +30,12 @@ from typing import Any
 
 import numpy as np
 
-from .._trajectory import Trajectory
-from ..methods import Estimator, Predictor, ab_filter, get_method, get_predictor, uniform_step
+from .. import _checks as checks
 from .._predict import check_measured
+from .._trajectory import Trajectory
+from ..methods import Estimator, Predictor, get_method, get_predictor
+from ..methods._adams import ab_filter
+from ..methods._base import uniform_step
 from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
 __all__ = ["EstimationResult", "estimate", "estimate_and_predict"]
@@ -204,7 +207,7 @@ def _window(
     if after is not None:
         if not math.isfinite(after):
             raise ValueError(f"`after` must be a finite time (s) or None, got {after}.")
-        k = k[data.t[k] >= after - 1e-9 * max(1.0, abs(after))]
+        k = k[checks.at_or_after(data.t[k], after)]
     if skip_input_jumps and history > 1 and k.size:
         same = np.ones(k.size, dtype=bool)
         for i in range(1, history):

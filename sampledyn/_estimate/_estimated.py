@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import ab_coefficients, warn_if_unstable
+from ..methods import ab_coefficients
+from ..methods._adams import warn_if_unstable
 from ._estimate import EstimationResult, estimate_and_predict
 
 __all__ = ["EstimatedAdamsBashforth", "estimated_euler"]

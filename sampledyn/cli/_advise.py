@@ -44,7 +44,7 @@ def _input(text: str, model: Any) -> Any:
     import tomllib
 
     from ..models import ClosedLoop
-    from ..signals import input_for
+    from ..signals._names import input_for
 
     text = text.strip()
     if text.startswith("{"):
@@ -109,7 +109,7 @@ def _run(args: argparse.Namespace) -> int:
         rank_by=args.rank_by,
         workers=args.workers,
     )
-    from ..report import plot_crossing
+    from ..report._sensitivity_figs import plot_crossing
 
     png = plot_crossing(advice.curves, out / "crossing.png", h_mark=args.h)
     if args.format == "json":
@@ -132,7 +132,7 @@ def _run(args: argparse.Namespace) -> int:
 def _methods(text: str | None) -> tuple[str, ...]:
     """``--methods``: the default rules when not given; an empty list is refused."""
     if text is None:
-        from ..experiments import DEFAULT_METHODS
+        from ..experiments._advise import DEFAULT_METHODS
 
         return tuple(DEFAULT_METHODS)
     chosen = names(text)
@@ -186,8 +186,8 @@ def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--methods",
         default=None,
-        help="comma-separated rules (default: sampledyn.experiments.DEFAULT_METHODS, "
-        "E, AB2-AB6, RK2-RK4 and T: the rules the bounds cover)",
+        help="comma-separated rules (default: E, AB2-AB6, RK2-RK4 and T: the rules the "
+        "bounds cover)",
     )
     p.add_argument("--T", type=float, default=60.0, help="reference run length in s (default 60)")
     p.add_argument("--seeds", type=int, default=3, help="Monte Carlo noise seeds (default 3)")

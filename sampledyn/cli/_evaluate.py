@@ -84,8 +84,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         )
     out = writable_file(args.out, "--out") if args.out else None
 
-    from ..experiments.sweep import build_model
-    from ..logs import evaluate_log, model_for_mapping, read_log
+    from ..experiments.sweep._inputs import build_model
+    from ..logs import evaluate_log, read_log
+    from ..logs._mapping import model_for_mapping
 
     with option("--vehicle"):
         model = build_model(args.vehicle)
@@ -149,7 +150,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     """Add the ``evaluate`` command to the subparsers ``sub``."""
     from .._local_errors import ERROR_NORMS
-    from ..logs import GAP_POLICIES, TIME_TOLERANCE
+    from ..logs._read import TIME_TOLERANCE
+    from ..logs._time import GAP_POLICIES
 
     ev = sub.add_parser(
         "evaluate",

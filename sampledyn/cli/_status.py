@@ -12,8 +12,7 @@ import errno
 import signal
 from typing import Any
 
-from .._trajectory import NumericalError
-from ..exceptions import UsageError  # noqa: F401  (re-exported until the API is curated)
+from ..exceptions import ArgumentError, NumericalError, UsageError
 
 __all__ = [
     "EXIT_BAD_VALUE",
@@ -27,9 +26,9 @@ __all__ = [
     "EXIT_STATUSES",
     "EXIT_TERMINATED",
     "EXIT_UNAVAILABLE",
+    "ARGUMENT_OPTIONS",
     "EXIT_USAGE",
     "Terminated",
-    "UsageError",
     "classify",
     "status_table",
 ]
@@ -65,7 +64,6 @@ EXIT_STATUSES: dict[int, str] = {
 }
 
 
-
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C."""
 
@@ -97,11 +95,31 @@ def _sqlite_status(exc: Exception) -> int:
     return EXIT_BAD_VALUE
 
 
-def classify(exc: BaseException) -> tuple[int, str]:
+#: Library argument -> the option (its ``dest``) that gives it, where the names differ.
+ARGUMENT_OPTIONS: dict[str, str] = {"base_seed": "seed"}
+
+
+def _with_options(text: str, argument: str, options: dict[str, str]) -> str:
+    """``text`` with the option that gave ``argument`` in front (``--h: ...``), and the
+    option of any other argument it names in backticks after that name."""
+    for dest, flag in options.items():
+        named = f"`{dest}`"
+        if dest != argument and named in text:
+            text = text.replace(named, f"{named} ({flag})", 1)
+    own = options.get(ARGUMENT_OPTIONS.get(argument, argument))
+    return text if own is None or text.startswith(own) else f"{own}: {text}"
+
+
+def classify(exc: BaseException, options: dict[str, str] | None = None) -> tuple[int, str]:
     """The exit status and the one-line message of ``exc``.
 
-    An option name attached as ``exc.sampledyn_option`` (see ``_common.option``)
-    prefixes the message.
+    The one place where library errors meet options: an
+    :class:`~sampledyn.exceptions.ArgumentError` names its ``argument``, and when the
+    command has an option for it (``options``: dest -> flag, with
+    :data:`ARGUMENT_OPTIONS` for names that differ) the message starts with the option
+    (``--h: sampling period `h` must be ...``).
+    An option name attached to a file error as ``exc.sampledyn_option`` (see
+    ``_common.option``) prefixes the message.
     """
     import sqlite3
 
@@ -129,4 +147,6 @@ def classify(exc: BaseException) -> tuple[int, str]:
     option: Any = getattr(exc, "sampledyn_option", None)
     if option and not text.startswith(option):
         text = f"{option} {text}" if status == EXIT_FILE else f"{option}: {text}"
+    elif isinstance(exc, ArgumentError) and options:
+        text = _with_options(text, exc.argument, options)
     return status, " ".join(text.split())

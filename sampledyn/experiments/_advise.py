@@ -29,30 +29,31 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
 from ..models import ClosedLoop, Vehicle
-from .._noise import noise_amplitudes
 from ..sensitivity import (
-    RANK_BY,
     Domain,
-    ErrorCurves,
-    JacobianReport,
-    check_tolerance,
-    check_vehicle,
-    domain_maxima,
     error_curves,
-    exact_reference,
     first_order_gain,
     gentle_input,
-    h_grid,
     largest_h,
-    period_ratio,
+    state_blocks,
+)
+from ..sensitivity._bound import domain_maxima, exact_reference, period_ratio
+from ..sensitivity._curves import (
+    RANK_BY,
+    ErrorCurves,
+    check_tolerance,
+    h_grid,
     rank_key,
     samples_needed,
-    state_blocks,
-    supported_method,
     usable_periods,
 )
+from ..sensitivity._domain import check_vehicle
+from ..sensitivity._gains import supported_method
+from ..sensitivity._jacobians import JacobianReport
 from ._bounds import measure_noisy, pooled
 from .sweep import exact_samples
 
@@ -313,27 +314,20 @@ def _checked_arguments(
         state_blocks(model.state_units, "model")
     if rank_by not in RANK_BY:
         raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
-    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
-    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
-        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
+    checks.period(h)
+    checks.count(seeds, "seeds")
+    checks.count(base_seed, "base_seed", least=0)
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):  # fmt: skip
-        raise ValueError(f"`workers` must be an int >= 1 (or None: this process), got {workers!r}.")
+    if workers is not None:
+        checks.count(workers, "workers")
     return ms
 
 
 def _check_run_length(ms: list[Any], h: float, T: Any) -> None:
     """The reference run of :func:`advise` is long enough for every rule's history."""
-    if not (isinstance(T, int | float) and math.isfinite(T) and T > 0):
-        raise ValueError(
-            f"reference run length `T` must be a finite number of seconds > 0, got {T!r}."
-        )
+    checks.positive(T, "T", what="reference run length", unit="s")
     longest = max(ms, key=lambda m: m.history)
     t_min = (samples_needed(ms) - 1) * h
     if T < t_min:
@@ -455,7 +449,7 @@ def advise(
         model, ms, base, usable_periods(ms, base, ks), eta_pct, v_pct, domain, signal, samples
     )
     at = int(np.argmin(np.abs(curves.h - h)))
-    if abs(curves.h[at] - h) > 1e-9 * h:
+    if not checks.same_period(h, float(curves.h[at])):
         raise ValueError(f"the reference run is too short for h = {h} s; raise `T`.")
 
     measured: dict[str, tuple[float, float, float, float]] = {}

@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from .. import _checks as checks
+from ..exceptions import ArgumentError
 from ._studies import StudyDefinition
 
 __all__ = [
@@ -115,12 +117,8 @@ class AUVStudy:
         from .._local_errors import ERROR_NORMS
 
         for r in self.ratios:
-            if isinstance(r, bool) or not isinstance(r, int) or r < 1:
-                raise ValueError(f"`ratios` must be positive integers, got {r!r}.")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(
-                f"`seed` (--seed) of the multilevel input must be an int >= 0, got {self.seed!r}."
-            )
+            checks.count(r, "ratios", types=ArgumentError)
+        checks.count(self.seed, "seed", what="the multilevel input's", least=0)
         if self.norm not in ERROR_NORMS:
             raise ValueError(f"`norm` must be one of {', '.join(ERROR_NORMS)}, got {self.norm!r}.")
 

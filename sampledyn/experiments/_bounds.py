@@ -18,25 +18,22 @@ from typing import Any
 
 import numpy as np
 
-from .._trajectory import Trajectory
 from .._noise import noise_amplitudes
-from ..sensitivity import (
-    Domain,
+from .._trajectory import Trajectory
+from ..sensitivity import Domain, gentle_input, path_prediction, scaled_inertia
+from ..sensitivity._bound import (
     ErrorBound,
     assemble_bound,
-    check_vehicle,
     domain_maxima,
-    gentle_input,
     jacobian_pair,
-    path_prediction,
-    pitch_guard,
     reference_at,
-    scaled_inertia,
-    supported_method,
     truncation_errors,
     truncation_estimate,
 )
-from .sweep import SweepConfig, exact_samples, run_study
+from ..sensitivity._domain import check_vehicle, pitch_guard
+from ..sensitivity._gains import supported_method
+from .sweep import SweepConfig, exact_samples
+from .sweep._run import run_study
 
 __all__ = [
     "InertiaSensitivity",

@@ -43,19 +43,14 @@ from typing import Any
 
 import numpy as np
 
-from .._discretize import LinearLaw, check_rule, discretize, run_loop
+from .._discretize import LinearLaw, discretize, run_loop
+from .._discretize._model import check_rule
+from ..exceptions import SweepConfigError
 from ..methods import get_method
 from ._studies import StudyDefinition
-from .sweep import (
-    CELL_ERRORS,
-    CellKind,
-    ChunkResult,
-    SimResult,
-    SweepConfig,
-    SweepConfigError,
-    warning_text,
-    worker_name,
-)
+from .sweep import CellKind, SweepConfig
+from .sweep._cells import warning_text, worker_name
+from .sweep._compute import CELL_ERRORS, ChunkResult, SimResult
 
 __all__ = [
     "CLOSED_LOOP",

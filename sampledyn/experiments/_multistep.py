@@ -32,20 +32,16 @@ from typing import Any
 
 import numpy as np
 
-from .._discretize import check_rule, discretize
+from .._discretize import discretize
+from .._discretize._model import check_rule
 from .._noise import add_noise
+from ..exceptions import SweepConfigError
 from ._closed_loop import study_order
 from ._studies import StudyDefinition
-from .sweep import (
-    CELL_ERRORS,
-    ChunkResult,
-    PredictionCells,
-    SimResult,
-    SweepConfig,
-    SweepConfigError,
-    warning_text,
-    worker_name,
-)
+from .sweep import SweepConfig
+from .sweep._cells import warning_text, worker_name
+from .sweep._compute import CELL_ERRORS, ChunkResult, SimResult
+from .sweep._prediction import PredictionCells
 
 __all__ = [
     "MULTISTEP",

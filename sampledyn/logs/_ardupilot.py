@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ._units import LogFormatError
+from ..exceptions import LogFormatError
 
 __all__ = [
     "FRAMES",

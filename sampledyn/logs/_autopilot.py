@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
 from ._ardupilot import FRAMES, MODES, estimator_note, frame_of, motor_channels, motor_signs
 from ._read import LogData, log_from_frame
 from ._streams import (
@@ -41,7 +42,6 @@ from ._streams import (
     thruster_rpm,
     vehicle_frame,
 )
-from ._units import LogFormatError
 
 __all__ = ["AUTOPILOT_KEYS", "AutopilotStreams", "autopilot_log", "check_thrusters"]
 

@@ -10,16 +10,17 @@ from typing import Any
 
 import numpy as np
 
-from .._local_errors import error_norm, error_window, local_errors
 from .._estimate import EstimationResult
-from ..methods import Estimator, fixed_step, get_method, get_predictor, stencil_steps
-from ..models import JacobianUnavailableError
+from .._local_errors import error_norm, error_window, local_errors
 from .._noise import NOISE_REFERENCE
 from .._predict import predict
+from ..exceptions import JacobianUnavailableError, LogFormatError
+from ..methods import Estimator, get_method, get_predictor, stencil_steps
+from ..methods._base import fixed_step
 from ..sensitivity import fastest_time_constant
 from ._read import LogData
 from ._time import TIME_UNITS
-from ._units import LogFormatError, split_header
+from ._units import split_header
 
 __all__ = ["MAX_H_RATE", "MIN_H_S", "LogEvaluation", "evaluate_log"]
 
@@ -346,7 +347,7 @@ def evaluate_log(
     bridged gap each uses the actual steps (``variable_step`` rules: Adams weights of
     the actual nodes, a step h_n per interval for RK_s and T); on a uniform grid
     their fixed coefficients. Which one is in ``LogEvaluation.notes``. The norms
-    weight the samples by their steps on non-uniform time (:mod:`sampledyn.errors`).
+    weight the samples by their steps on non-uniform time (:mod:`sampledyn._local_errors`).
     """
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")

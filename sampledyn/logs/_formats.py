@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ._units import LogFormatError
+from ..exceptions import LogFormatError
 
 __all__ = ["LOG_FORMATS", "LogFormat", "detect_format"]
 
@@ -50,6 +50,8 @@ class LogFormat:
     extra: str | None = None
 
     def read(self, path: Path, model: Any, **kwargs: Any) -> Any:
+        """The log at ``path`` read by this format's reader for ``model`` (``kwargs``:
+        the reader's options, as :func:`sampledyn.logs.read_log` takes them)."""
         module, function = self.reader.split(":")
         return getattr(importlib.import_module(module, __package__), function)(
             path, model, **kwargs

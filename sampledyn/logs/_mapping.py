@@ -9,7 +9,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from ._units import LogFormatError
+from ..exceptions import LogFormatError
 
 __all__ = ["check_keys", "load_toml", "model_for_mapping", "table_mapping"]
 

@@ -42,11 +42,11 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
 from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
 from ._streams import mapping_section, nearest
-from ._units import LogFormatError
 
 __all__ = ["read_blueos", "read_tlog"]
 

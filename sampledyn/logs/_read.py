@@ -46,9 +46,10 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..exceptions import LogFormatError
 from ._mapping import load_toml, table_mapping
 from ._time import Sampling, check_policy, read_clock, sampling
-from ._units import LogFormatError, conversion_factor, split_header
+from ._units import conversion_factor, split_header
 
 __all__ = [
     "NAN_POLICIES",

@@ -63,6 +63,7 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
 from ._ardupilot import FRAMES, RC_AXES, manual_mixer, motor_signs
 from ._frames import BODY_FRAMES, WORLD_FRAMES, quaternion_matrix, to_ned_frd, twist_frame_fit
 from ._mapping import check_keys
@@ -78,7 +79,6 @@ from ._streams import (
     thruster_rpm,
     vehicle_frame,
 )
-from ._units import LogFormatError
 
 __all__ = ["FRAME_FIT_RATIO", "read_bag"]
 

@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
 from ._mapping import check_keys, load_toml
 from ._t200 import T200_VOLTAGES, t200_deadband, t200_rpm
-from ._units import CONVERSIONS, LogFormatError
+from ._units import CONVERSIONS
 
 __all__ = [
     "SAMPLING_RULE",

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 import re
-from ..exceptions import LogFormatError  # noqa: F401  (re-exported until the API is curated)
 
-__all__ = ["CONVERSIONS", "LogFormatError", "conversion_factor", "split_header"]
+from ..exceptions import LogFormatError
 
+__all__ = ["CONVERSIONS", "conversion_factor", "split_header"]
 
 
 _DEG = math.pi / 180.0

@@ -32,6 +32,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
+from .. import _checks as checks
 from .._trajectory import Trajectory
 from ._base import (
     FixedRule,
@@ -68,11 +69,7 @@ STABILITY_INTERVAL_MIN = 0.05
 
 
 def _check_order(s: Any) -> int:
-    if isinstance(s, bool) or not isinstance(s, int | np.integer):
-        raise TypeError(f"order `s` must be an int, got {type(s).__name__}.")
-    if s < 1:
-        raise ValueError(f"order `s` must be >= 1, got {s}.")
-    return int(s)
+    return checks.count(s, "s", what="order")
 
 
 @lru_cache(maxsize=64)

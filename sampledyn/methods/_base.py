@@ -65,6 +65,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .. import _checks as checks
 from .._trajectory import Trajectory, steps_on_grid, uniform_grid
 
 __all__ = [
@@ -219,17 +220,25 @@ class DiscreteStep(Protocol):
     @property
     def takes_f0(self) -> bool: ...
 
-    def source(self) -> str: ...
+    def source(self) -> str:
+        """The numba source of the compiled step (see the class docstring)."""
+        ...
 
     def blocks(
         self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, solver: Any = None
-    ) -> list[Any]: ...
+    ) -> list[Any]:
+        """The next state's blocks from the current ones, on numpy or CasADi values."""
+        ...
 
     def linearize(
         self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float
-    ) -> tuple[np.ndarray, np.ndarray]: ...
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_d, B_d)`` of z+ = F(z, u) at ``(z, u)``, exact."""
+        ...
 
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any: ...
+    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any:
+        """The state z of a constant history at ``(x, u)``."""
+        ...
 
 
 @runtime_checkable
@@ -453,9 +462,7 @@ def check_gain_args(h: Any, lipschitz: Any) -> tuple[float, np.ndarray]:
             f"`lipschitz` must be a finite non-negative square array (2x2: eta and v "
             f"blocks), got {lipschitz!r}."
         )
-    if not (isinstance(h, int | float | np.floating | np.integer) and np.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
-    return float(h), L
+    return checks.period(h), L
 
 
 def nan_rows(data: Trajectory, shape: tuple[int, ...] = ()) -> np.ndarray:

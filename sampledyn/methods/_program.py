@@ -18,7 +18,7 @@ A value is referred to as ("z", b) (block b of z), ("k", i) (f of stage i) or
 floating-point operations in the same order wherever they are executed:
 
 * :meth:`StepProgram.source`: the numba source of ``step(t, z, u, p, h, out)``
-  (and ``step_f``, the step given f at x_n), compiled by :mod:`sampledyn.discretize`
+  (and ``step_f``, the step given f at x_n), compiled by :func:`sampledyn.discretize`
   against the model's kernel;
 * :meth:`StepProgram.blocks`: the step in vector arithmetic (numpy arrays or CasADi
   symbols);
@@ -40,13 +40,11 @@ from typing import Any
 
 import numpy as np
 
-from .._trajectory import NumericalError
-from ..exceptions import ConvergenceError  # noqa: F401  (re-exported until the API is curated)
+from ..exceptions import ConvergenceError
 
-__all__ = ["Combination", "ConvergenceError", "Stage", "StepProgram", "stage_jacobians"]
+__all__ = ["Combination", "Stage", "StepProgram", "stage_jacobians"]
 
 Ref = tuple[str, int]
-
 
 
 @dataclass(frozen=True)

@@ -22,11 +22,13 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from .. import _checks as checks
 from .._trajectory import Trajectory
+from ..exceptions import ConvergenceError
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
-from ._program import Combination, ConvergenceError, Stage, StepProgram
+from ._program import Combination, Stage, StepProgram
 
-__all__ = ["NEWTON_BLOCK", "ConvergenceError", "Tustin"]
+__all__ = ["NEWTON_BLOCK", "Tustin"]
 
 # Intervals solved together: the LU factors of a block (NEWTON_BLOCK x nx x nx floats,
 # 2.4 MB for nx = 12) stay in cache across its iterations instead of streaming the
@@ -52,10 +54,8 @@ class Tustin(FixedRule):
     order: int = 2
 
     def __post_init__(self) -> None:
-        if not (self.tol > 0):
-            raise ValueError(f"`tol` must be positive, got {self.tol}.")
-        if self.max_iter < 1:
-            raise ValueError(f"`max_iter` must be >= 1, got {self.max_iter}.")
+        checks.positive(self.tol, "tol")
+        checks.count(self.max_iter, "max_iter")
 
     @property
     def family(self) -> str:

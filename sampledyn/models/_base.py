@@ -15,8 +15,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numba import float64, njit, types
 
+from ..exceptions import JacobianUnavailableError
 from ._codegen import batch_functions
-from ..exceptions import JacobianUnavailableError  # noqa: F401  (re-exported until the API is curated)
 
 __all__ = [
     "BATCH_JAC_SIG",
@@ -24,7 +24,6 @@ __all__ = [
     "JAC_SIG",
     "RHS_SIG",
     "CompiledModel",
-    "JacobianUnavailableError",
     "LinearForm",
     "Model",
     "ParameterArrayModel",
@@ -169,7 +168,6 @@ def batch_eval(kernel: Callable[..., None], p: Any, t: Any, x: Any, u: Any, nx: 
     else:
         out = _batch_rhs(kernel, readonly(t), readonly(x), readonly(u), readonly(p))
     return out[0] if single else out
-
 
 
 class LinearForm:

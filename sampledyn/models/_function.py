@@ -4,7 +4,7 @@ The function is compiled for the project's kernel signature, so the exact simula
 and every predictor call it as they call the built-in kernels. Nothing is derived from
 it: the Jacobian is the user's (``jac=``) or absent, and then everything that needs
 one (Tustin, sensitivity bounds, Jacobian maxima, closed-loop Jacobians) raises
-:class:`~sampledyn.models.JacobianUnavailableError` saying how to supply it; nothing
+:class:`~sampledyn.exceptions.JacobianUnavailableError` saying how to supply it; nothing
 silently falls back to finite differences.
 
 The compiled kernels live in this process only (a function defined in a script or a
@@ -24,7 +24,8 @@ import numpy as np
 from numba import njit
 from numba.core.errors import NumbaError
 
-from ._base import JAC_SIG, RHS_SIG, JacobianUnavailableError, ParameterArrayModel
+from ..exceptions import JacobianUnavailableError
+from ._base import JAC_SIG, RHS_SIG, ParameterArrayModel
 
 __all__ = ["FunctionModel"]
 

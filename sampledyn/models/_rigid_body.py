@@ -17,10 +17,10 @@ import math
 from typing import Any
 
 import numpy as np
-from ..exceptions import SingularPitchError  # noqa: F401  (re-exported until the API is curated)
+
+from ..exceptions import SingularPitchError
 
 __all__ = [
-    "SingularPitchError",
     "check_pitch",
     "coriolis_matrix",
     "euler_rate_matrix",
@@ -32,7 +32,6 @@ __all__ = [
     "skew",
     "thruster_allocation",
 ]
-
 
 
 def skew(a: Any) -> np.ndarray:

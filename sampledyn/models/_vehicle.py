@@ -46,6 +46,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from ..exceptions import VehicleParameterError
 from ._base import CompiledModel, LinearForm, _as_batch, readonly
 from ._rigid_body import (
     check_pitch,
@@ -63,9 +65,8 @@ from ._vehicle_kernels import (
     vehicle_rhs,
     vehicle_switch,
 )
-from ..exceptions import VehicleParameterError  # noqa: F401  (re-exported until the API is curated)
 
-__all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "VehicleParameterError", "symmetrized"]
+__all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "symmetrized"]
 
 _ETA_NAMES = ("x", "y", "z", "phi", "theta", "psi")
 _V_NAMES = ("u", "v", "w", "p", "q", "r")
@@ -141,7 +142,6 @@ PARAM_UNITS: dict[str, str] = {
     "n_max": "rpm",
     "T_n": "s",
 }
-
 
 
 def _array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) -> np.ndarray:
@@ -282,13 +282,8 @@ def _check_declaration(
 
 
 def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise VehicleParameterError(name, f"`{name}` must be a number, got {value!r}.")
-    v = float(value)
-    if not math.isfinite(v):
-        raise VehicleParameterError(name, f"`{name}` must be finite, got {value!r}.")
-    if positive and v <= 0:
-        raise VehicleParameterError(name, f"`{name}` must be > 0, got {v}.")
+    check = checks.positive if positive else checks.number
+    v = check(value, name, error=VehicleParameterError, types=VehicleParameterError)
     if nonneg and v < 0:
         raise VehicleParameterError(name, f"`{name}` must be >= 0, got {v}.")
     return v

@@ -45,14 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from ._vehicle import (
-    QUADRATIC_IS_DIAGONAL,
-    SYMMETRY_RTOL,
-    AsymmetricPair,
-    Vehicle,
-    VehicleParameterError,
-    symmetrized,
-)
+from ..exceptions import VehicleParameterError
+from ._vehicle import QUADRATIC_IS_DIAGONAL, SYMMETRY_RTOL, AsymmetricPair, Vehicle, symmetrized
 
 __all__ = ["builtin_vehicles", "load_vehicle"]
 

@@ -40,10 +40,13 @@ from typing import Any
 
 import numpy as np
 
-from .._trajectory import Trajectory
+from .. import _checks as checks
 from .._local_errors import sum_of_squares
-from ..methods import fixed_step, stencil_steps
 from .._noise import NOISE_REFERENCE, noise_amplitudes
+from .._trajectory import Trajectory
+from ..exceptions import ArgumentError
+from ..methods import stencil_steps
+from ..methods._base import fixed_step
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
 from ._jacobians import JacobianReport, _jacobian_bounds
@@ -187,13 +190,14 @@ def subsample(traj: Trajectory, k: int) -> Trajectory:
 
 def period_ratio(h: float, base: float, argument: str = "h") -> int:
     """The integer k with h = k base (s), or a ValueError naming ``argument``."""
-    k = round(h / base)
-    if k < 1 or abs(k * base - h) > 1e-9 * h:
-        raise ValueError(
+    k = checks.integer_ratio(h, base)
+    if k is None:
+        raise ArgumentError(
+            argument,
             f"`{argument}` h = {h} s must be an integer multiple of the reference sampling "
-            f"period {base} s; simulate the reference with a divisor of h."
+            f"period {base} s; simulate the reference with a divisor of h.",
         )
-    return int(k)
+    return k
 
 
 def exact_reference(reference: Any) -> Trajectory:
@@ -417,8 +421,7 @@ def disturbed_error_bound(
     """
     check_vehicle(model, "model")
     m = supported_method(method)
-    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
+    h = checks.period(h)
     amplitudes = noise_amplitudes(model.state_units, eta_pct, v_pct)
     clean = reference_at(reference, h)
     _, jac, jac_plus = domain_maxima(model, clean, signal, domain, amplitudes, samples)

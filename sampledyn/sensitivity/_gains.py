@@ -91,6 +91,6 @@ def noise_gain(method: Any, h: float, lipschitz: Any, ratio: float = 1.0) -> np.
     ------
     ValueError
         for an estimated rule (no bound), or a rule of order above
-        :data:`sampledyn.methods.MAX_GAIN_ORDER` with ``ratio`` > 1.
+        :data:`sampledyn.methods._nodes.MAX_GAIN_ORDER` with ``ratio`` > 1.
     """
     return supported_method(method).noise_gain(h, lipschitz, ratio)

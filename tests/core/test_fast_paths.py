@@ -102,7 +102,7 @@ def test_the_integrator_uses_the_whole_table():
 def _old_error_norms(errors, t, kinds, after=None, components=None, where=None):
     """The error norms as they were computed before the window (main 04f6bc2): the
     reference the windowed computation must equal bit for bit."""
-    from sampledyn.methods import uniform_grid
+    from sampledyn.methods._base import uniform_grid
 
     e = np.asarray(errors, dtype=float)
     if components is not None:
@@ -184,7 +184,7 @@ def test_sum_of_squares_orders():
 def _rexrov():
     import warnings
 
-    from sampledyn.experiments import fig7_vehicle
+    from sampledyn.experiments._rov import fig7_vehicle
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the file's added-mass symmetry note
@@ -246,7 +246,7 @@ def test_add_noise_is_the_former_formula(rexrov_data):
 
 
 def test_trajectory_checks_are_remembered_and_unchanged():
-    from sampledyn.methods import uniform_grid
+    from sampledyn.methods._base import uniform_grid
 
     t = np.arange(100) * 0.01
     x = np.zeros((100, 2))
@@ -331,7 +331,7 @@ def test_closed_loop_jacobian_is_the_chain_rule_through_the_plant_bit_for_bit():
     # the vehicle's input Jacobian kernel is its input_jacobian
     jac_u, p = veh.input_jacobian_kernel()
     out = np.empty((12, 8))
-    from sampledyn.models import readonly
+    from sampledyn.models._base import readonly
 
     jac_u(0.0, readonly(x[3]), readonly(u[3]), readonly(p), out)
     assert np.array_equal(out, veh.input_jacobian(0.0, x[3], u[3]))
@@ -364,7 +364,7 @@ def test_workers_keep_freed_memory():
     code = """
         import json, resource, sys
         import numpy as np
-        from sampledyn.experiments.sweep import retain_freed_memory
+        from sampledyn.experiments.sweep._backends import retain_freed_memory
         ok = retain_freed_memory() if sys.argv[-1] == "retain" else None
 
         def faults():

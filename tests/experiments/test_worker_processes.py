@@ -22,7 +22,7 @@ from _faults import (
     write_grid,
 )
 
-from sampledyn.cli import EXIT_INTERRUPTED, EXIT_TERMINATED
+from sampledyn.cli._status import EXIT_INTERRUPTED, EXIT_TERMINATED
 
 pytestmark = pytest.mark.skipif(
     not sys.platform.startswith("linux"), reason="process trees are read from /proc"

@@ -11,7 +11,9 @@ from pathlib import Path
 import pytest
 
 import sampledyn
-from sampledyn.methods import BUILT_IN, TABLEAUX, available_methods, families, get_method
+from sampledyn.methods import available_methods, families, get_method
+from sampledyn.methods._registry import BUILT_IN
+from sampledyn.methods._runge_kutta import TABLEAUX
 
 ROOT = Path(sampledyn.__file__).parent
 

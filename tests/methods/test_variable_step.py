@@ -25,20 +25,18 @@ from scipy.linalg import expm
 from scipy.optimize import minimize
 
 import sampledyn as sd
+from sampledyn._local_errors import error_norms
 from sampledyn.methods import (
     Estimator,
     Predictor,
     ab_coefficients,
-    ab_gain_factor,
     available_methods,
-    collocation_weights,
     get_method,
-    lagrange_integrals,
     stencil_steps,
 )
-from sampledyn.methods._jump import backward_weights
-from sampledyn._local_errors import error_norms
-from sampledyn.methods._nodes import pattern_nodes
+from sampledyn.methods._adams import ab_gain_factor
+from sampledyn.methods._jump import backward_weights, collocation_weights
+from sampledyn.methods._nodes import lagrange_integrals, pattern_nodes
 
 PREDICTORS = [n for n in available_methods() if isinstance(get_method(n), Predictor)]
 VARIABLE = [

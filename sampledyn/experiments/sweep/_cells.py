@@ -245,13 +245,13 @@ class CellKind:
 
     def prepare(self, setup: Setup, sim: SimPlan) -> dict[str, Any]:
         """The shared part of the trajectories of ``sim``, once: traj_key ->
-        :class:`~sampledyn.experiments.sweep.SimResult` (``meta`` becomes the
+        :class:`~sampledyn.experiments.sweep._compute.SimResult` (``meta`` becomes the
         trajectory's stored row)."""
         raise NotImplementedError
 
     def compute(self, setup: Setup, shared: Any, chunk: Chunk) -> Any:
         """Every cell of ``chunk`` on the shared part ``shared`` of its trajectory:
-        a :class:`~sampledyn.experiments.sweep.ChunkResult` with one row per cell
+        a :class:`~sampledyn.experiments.sweep._compute.ChunkResult` with one row per cell
         (``key``, ``status``, ``seconds``, ``error``, ``warnings`` and ``values``: a
         dict of the kind's :attr:`columns`, empty or partial for a failed cell)."""
         raise NotImplementedError

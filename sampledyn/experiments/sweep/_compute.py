@@ -37,13 +37,14 @@ from typing import Any
 
 import numpy as np
 
-from ..._trajectory import Trajectory
 from ..._local_errors import local_errors
-from ...methods import ConvergenceError, get_method
-from ...models import ClosedLoop
 from ..._noise import add_noise
 from ..._predict import predict
-from ..._simulate import IntegrationError, simulate
+from ..._simulate import simulate
+from ..._trajectory import Trajectory
+from ...exceptions import ConvergenceError, IntegrationError
+from ...methods import get_method
+from ...models import ClosedLoop
 from ._cells import Chunk, Group, Setup, SimPlan
 from ._norms import NormSpec, measure, parse_norm
 from ._summaries import summarize_trajectory

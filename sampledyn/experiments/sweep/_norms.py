@@ -36,8 +36,8 @@ from typing import Any
 import numpy as np
 
 from ..._local_errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
-from ...methods import Predictor, available_methods, get_method
 from ..._noise import NOISE_REFERENCE
+from ...methods import Predictor, available_methods, get_method
 
 __all__ = [
     "NormSpec",

@@ -69,13 +69,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-from ...exceptions import NotAStoreError  # noqa: F401  (re-exported until the API is curated)
+
+from ...exceptions import NotAStoreError
 
 __all__ = [
     "APPLICATION_ID",
     "CELL_COLUMNS",
     "Claim",
-    "NotAStoreError",
     "ResultStore",
     "inspect_store",
     "load_results",
@@ -176,7 +176,6 @@ _CLAIM_COLUMNS = (
 )
 _TABLES = ("cells", "trajectories", "runs")
 _BATCH = 500  # keys per SQL statement (SQLite's variable limit is 32766 since 3.32)
-
 
 
 @dataclass(frozen=True)
@@ -861,6 +860,7 @@ class ResultStore:
         return True
 
     def close(self) -> None:
+        """Close the store's connection (a ``with`` block does it on exit)."""
         self._conn.close()
 
     def __enter__(self) -> ResultStore:
