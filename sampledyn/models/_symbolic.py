@@ -25,6 +25,7 @@ travel in the array ``p``), so :meth:`SymbolicModel.with_params` never recompile
 
 from __future__ import annotations
 
+import itertools
 import threading
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -261,10 +262,8 @@ def _kinks(sp: Any, exprs: Sequence[Any], variables: set[Any]) -> list[Any]:
             if isinstance(node, sp.Abs | sp.sign | sp.Heaviside):
                 add(node.args[0])
             elif isinstance(node, sp.Max | sp.Min):
-                args = node.args
-                for i in range(len(args)):
-                    for j in range(i + 1, len(args)):
-                        add(args[i] - args[j])
+                for a, b in itertools.combinations(node.args, 2):
+                    add(a - b)
             elif isinstance(node, sp.Piecewise):
                 for _, cond in node.args:
                     relations(cond)

@@ -1,8 +1,9 @@
 """The public API, in python-control's spirit (its ``docstring_test`` and
 ``kwargs_test``): every public function and class, and every public method of a public
-class, has a docstring (properties are described in their class's docstring); every public callable that takes ``**kwargs`` refuses a keyword
-it does not know, naming it, and is listed below with a call that shows it; exported
-names are few, and each is one thing."""
+class, has a docstring (properties are described in their class's docstring); every
+public callable that takes ``**kwargs`` refuses a keyword it does not know, naming it,
+and is listed below with a call that shows it; exported names are few, and each is one
+thing."""
 
 from __future__ import annotations
 
@@ -129,8 +130,8 @@ def _call(name: str, auv_run: Any, tmp_path: Any) -> None:
         ),
         "sampledyn.experiments.StudyDefinition.settings": lambda: _study().settings(**bad),
         "sampledyn.experiments.run_study": lambda: sd.experiments.run_study(_config(), **bad),
-        "sampledyn.experiments.sweep.SweepConfig.with_feedback": lambda: (
-            _config().with_feedback("roll_pitch_hold", **bad)
+        "sampledyn.experiments.sweep.SweepConfig.with_feedback": lambda: _config().with_feedback(
+            "roll_pitch_hold", **bad
         ),
     }
     calls[name]()
