@@ -25,6 +25,7 @@ from . import _checks as checks
 from . import _dop853 as _dop
 from ._trajectory import Certificate, Trajectory
 from .exceptions import ArgumentError, IntegrationError
+from .models import Model
 from .models._base import RHS_TYPE, RO1, RO2, readonly
 from .models._base import index_switch as _index_switch
 from .signals import Signal
@@ -352,7 +353,7 @@ def _readonly_bool(a: Any) -> np.ndarray:
     return a
 
 
-def switching(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
+def switching(model: Model) -> tuple[Any, np.ndarray, np.ndarray]:
     """The model's switching function: values whose zero crossings are points where f
     is not smooth (``|v| v``, ``n |n|``).
 
@@ -387,7 +388,7 @@ class _InputLimits:
     so the full-length input is never built; :meth:`warn` once at the end.
     """
 
-    def __init__(self, model: Any) -> None:
+    def __init__(self, model: Model) -> None:
         limits: Any = getattr(model, "input_limits", None)
         self.model = model
         self.active = limits is not None
@@ -468,7 +469,7 @@ def check_period(h: Any, T: Any) -> int:
 
 
 def simulate(
-    model: Any,
+    model: Model,
     signal: Any,
     T: float,
     h: float,
@@ -586,7 +587,7 @@ def simulate(
 
 
 def _run(
-    model: Any,
+    model: Model,
     signal: Any,
     nodes: np.ndarray,
     sample_node: np.ndarray | None,

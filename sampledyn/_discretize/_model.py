@@ -30,8 +30,9 @@ from .._predict import check_measured
 from .._simulate import switching
 from .._trajectory import Trajectory
 from ..exceptions import ArgumentError, JacobianUnavailableError
-from ..methods import DiscreteTimeSystem, Estimator, get_method
+from ..methods import DiscreteTimeSystem, Estimator, Method, get_method
 from ..methods._base import uniform_step
+from ..models import Model
 from ..models._codegen import import_line as kernel_import_line
 from ..models._codegen import load_module as load_generated_module
 
@@ -172,7 +173,7 @@ def rollout_f(t, x, u, p, h, k, out):
 """
 
 
-def _rule(method: Any) -> Any:
+def _rule(method: str | Method) -> Any:
     """The rule object, or a ValueError saying why it is not a discrete-time system."""
     rule: Any = get_method(method)
     if isinstance(rule, DiscreteTimeSystem):
@@ -188,14 +189,14 @@ def _rule(method: Any) -> Any:
     raise ValueError(f"`method` {rule.name!r} cannot be discretized: {why}.")
 
 
-def check_rule(method: Any) -> None:
+def check_rule(method: str | Method) -> None:
     """Raise a ValueError saying why ``method`` (a registry name or rule object) is not
     a discrete-time system z+ = F(z, u) (the estimated rules, ABj_s); pass otherwise.
     For studies that design on each rule, before any work."""
     _rule(method)
 
 
-def _module(model: Any, step: Any) -> tuple[Any, Any]:
+def _module(model: Model, step: Any) -> tuple[Any, Any]:
     """The generated module of (model kernel, rule's step) and the parameter array p."""
     rhs, p = model.kernel()
     needs_jac = "jac" in step.kernels
@@ -272,7 +273,9 @@ class DiscreteModel:
         past sample; with ``delay`` z ends with the held command (nu entries).
     """
 
-    def __init__(self, model: Any, method: Any, h: float, *, delay: bool = False) -> None:
+    def __init__(
+        self, model: Model, method: str | Method, h: float, *, delay: bool = False
+    ) -> None:
         rule = _rule(method)
         if not isinstance(delay, bool | np.bool_):
             raise TypeError(f"`delay` must be True or False, got {delay!r}.")
@@ -587,7 +590,9 @@ def compiled_kernel(module: Any, name: str) -> Any:
     return getattr(module, name)
 
 
-def discretize(model: Any, method: Any, h: float, *, delay: bool = False) -> DiscreteModel:
+def discretize(
+    model: Model, method: str | Method, h: float, *, delay: bool = False
+) -> DiscreteModel:
     """The discrete-time model z+ = F(z, u) of a sampled-data rule applied to a model.
 
     Parameters

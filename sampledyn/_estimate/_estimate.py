@@ -36,6 +36,7 @@ from .._trajectory import Trajectory
 from ..methods import Estimator, Predictor, get_method, get_predictor
 from ..methods._adams import ab_filter
 from ..methods._base import uniform_step
+from ..models._base import ParametricModel
 from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
 __all__ = ["EstimationResult", "estimate", "estimate_and_predict"]
@@ -107,7 +108,7 @@ class EstimationResult:
 
     params: Mapping[str, float]
     units: Mapping[str, str]
-    model: Any
+    model: ParametricModel
     structure: str
     p: float
     n_samples: int
@@ -166,7 +167,7 @@ def _check_p(p: Any) -> float:
     return p
 
 
-def _linear_form(model: Any, data: Trajectory) -> Any:
+def _linear_form(model: ParametricModel, data: Trajectory) -> Any:
     fn = getattr(model, "regressors", None)
     if fn is None:
         return None
@@ -176,7 +177,9 @@ def _linear_form(model: Any, data: Trajectory) -> Any:
         return None
 
 
-def _free_params(model: Any, params: Any, lf: Any, free_weights: bool) -> tuple[str, ...]:
+def _free_params(
+    model: ParametricModel, params: Any, lf: Any, free_weights: bool
+) -> tuple[str, ...]:
     for attr in ("param_names", "params", "with_params"):
         if not hasattr(model, attr):
             raise TypeError(
@@ -217,7 +220,7 @@ def _window(
 
 
 def _components(
-    model: Any, data: Trajectory, free: tuple[str, ...], lf: Any, free_weights: bool
+    model: ParametricModel, data: Trajectory, free: tuple[str, ...], lf: Any, free_weights: bool
 ) -> np.ndarray:
     """State components whose f depends on the free parameters (all, for free weights)."""
     if free_weights:
@@ -273,7 +276,7 @@ def _check_count(n_rows: int, n_unknowns: int, n_samples: int, after: float | No
 
 
 def estimate(
-    model: Any,
+    model: ParametricModel,
     measured: Trajectory,
     structure: Any = "AB2",
     p: float = 2,
@@ -461,7 +464,7 @@ def estimate(
 
 @dataclass(frozen=True)
 class _Context:
-    model: Any
+    model: ParametricModel
     data: Trajectory
     rule: Any
     k: np.ndarray
@@ -737,7 +740,7 @@ def _fit_nonlinear(ctx: _Context, signal: Any) -> EstimationResult:
 
 
 def estimate_and_predict(
-    model: Any,
+    model: ParametricModel,
     measured: Trajectory,
     structure: Any = "AB2",
     signal: Any = None,

@@ -7,6 +7,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from ..models import Model
 from ._common import add_format, names, option, pair, print_json, refuse, writable_dir
 
 __all__ = ["add_parser"]
@@ -39,7 +40,7 @@ def _crossings(advice: Any) -> dict[str, list[float | None]]:
     return {name: list(advice.curves.crossing(name)) for name in advice.curves.methods}
 
 
-def _input(text: str, model: Any) -> Any:
+def _input(text: str, model: Model) -> Any:
     """The signal of ``--input``: a registered input name or an inline TOML table."""
     import tomllib
 

@@ -7,6 +7,7 @@ import csv
 import math
 from typing import Any
 
+from ..models import Model
 from ._common import add_format, names, option, print_json, refuse, registry, writable_file
 
 __all__ = ["add_parser"]
@@ -30,7 +31,7 @@ def _check_estimate(rules: tuple[str, ...]) -> None:
             )
 
 
-def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[str, Any]:
+def _json(args: argparse.Namespace, model: Model, data: Any, result: Any) -> dict[str, Any]:
     """The document of ``evaluate --format json`` (keys in docs/cli.md)."""
     tr = data.traj
     est = result.estimation

@@ -9,6 +9,7 @@ below, also in ``sampledyn --help`` and ``docs/cli.md``). ``--debug`` or
 from __future__ import annotations
 
 import errno
+import re
 import signal
 from typing import Any
 
@@ -99,15 +100,21 @@ def _sqlite_status(exc: Exception) -> int:
 ARGUMENT_OPTIONS: dict[str, str] = {"base_seed": "seed"}
 
 
+def _mentions(text: str, flag: str) -> bool:
+    """``text`` names option ``flag`` (``--h`` is not named by ``--hold-gains``)."""
+    return re.search(rf"{re.escape(flag)}(?![\w-])", text) is not None
+
+
 def _with_options(text: str, argument: str, options: dict[str, str]) -> str:
     """``text`` with the option that gave ``argument`` in front (``--h: ...``), and the
-    option of any other argument it names in backticks after that name."""
+    option of any other argument it names in backticks after that name (unless the
+    text names the option already)."""
     for dest, flag in options.items():
         named = f"`{dest}`"
-        if dest != argument and named in text:
+        if dest != argument and named in text and not _mentions(text, flag):
             text = text.replace(named, f"{named} ({flag})", 1)
     own = options.get(ARGUMENT_OPTIONS.get(argument, argument))
-    return text if own is None or text.startswith(own) else f"{own}: {text}"
+    return text if own is None or _mentions(text, own) else f"{own}: {text}"
 
 
 def classify(exc: BaseException, options: dict[str, str] | None = None) -> tuple[int, str]:

@@ -25,14 +25,14 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from .. import _checks as checks
 from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
-from ..models import ClosedLoop, Vehicle
+from ..models import ClosedLoop, Model, Vehicle
 from ..sensitivity import (
     Domain,
     error_curves,
@@ -229,7 +229,7 @@ class Advice:
         return "\n".join(lines)
 
 
-def default_input(model: Any) -> Any:
+def default_input(model: Model) -> Any:
     """The default reference input of ``advise``: the Fig. 6 thruster pattern at 20 %
     (:func:`sampledyn.sensitivity.gentle_input`) of a vehicle (or of the vehicle in a
     closed loop).
@@ -256,7 +256,7 @@ def default_input(model: Any) -> Any:
 
 
 def _curves(
-    model: Any,
+    model: Model,
     ms: list[Any],
     base: Trajectory,
     ks: list[int],
@@ -305,7 +305,7 @@ def _curves(
 
 
 def _checked_arguments(
-    model: Any, h: Any, methods: Any, rank_by: Any, seeds: Any, base_seed: Any, workers: Any
+    model: Model, h: Any, methods: Any, rank_by: Any, seeds: Any, base_seed: Any, workers: Any
 ) -> list[Any]:
     """The methods of :func:`advise`, its other arguments checked (named)."""
     if isinstance(model, Vehicle):
@@ -339,7 +339,7 @@ def _check_run_length(ms: list[Any], h: float, T: Any) -> None:
 
 
 def _reference_run(
-    model: Any, signal: Any, reference: Any, h: float, T: float, x0: Any, h_max: Any
+    model: Model, signal: Any, reference: Any, h: float, T: float, x0: Any, h_max: Any
 ) -> tuple[Trajectory, Any]:
     """The exact samples the curves are computed on (simulated, or the reference
     given) and the multiples k of their period that the curves visit."""
@@ -355,7 +355,7 @@ def _reference_run(
 
 
 def advise(
-    model: Any,
+    model: Model,
     h: float,
     eta_pct: float,
     v_pct: float,
@@ -442,7 +442,7 @@ def advise(
     jac = None
     notes: list[str] = []
     if vehicle:
-        domain, jac, _ = domain_maxima(model, base, signal, domain, amp, samples)
+        domain, jac, _ = domain_maxima(cast(Vehicle, model), base, signal, domain, amp, samples)
     else:
         notes.append(f"bound, h_max_g: {NO_BOUND}.")
     curves = _curves(

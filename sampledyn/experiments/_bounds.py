@@ -20,6 +20,7 @@ import numpy as np
 
 from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
+from ..models import Model, Vehicle
 from ..sensitivity import Domain, gentle_input, path_prediction, scaled_inertia
 from ..sensitivity._bound import (
     ErrorBound,
@@ -46,7 +47,7 @@ __all__ = [
 
 
 def reference_samples(
-    model: Any,
+    model: Model,
     h: float,
     signal: Any = None,
     reference: Trajectory | None = None,
@@ -66,7 +67,7 @@ def reference_samples(
 
 
 def measure_noisy(
-    model: Any,
+    model: Model,
     methods: Sequence[str],
     clean: Trajectory,
     signal: Any,
@@ -181,7 +182,7 @@ class MonteCarloRow:
 
 
 def monte_carlo_check(
-    model: Any,
+    model: Vehicle,
     methods: Sequence[Any],
     h: float,
     noise_levels: Sequence[tuple[float, float]],

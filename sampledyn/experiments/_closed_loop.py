@@ -47,6 +47,7 @@ from .._discretize import LinearLaw, discretize, run_loop
 from .._discretize._model import check_rule
 from ..exceptions import SweepConfigError
 from ..methods import get_method
+from ..models import Model
 from ._studies import StudyDefinition
 from .sweep import CellKind, SweepConfig
 from .sweep._cells import warning_text, worker_name
@@ -414,7 +415,7 @@ class ClosedLoopCells(CellKind):
     def measures(self, config: Any) -> tuple[str, ...]:
         return ("tracking",)
 
-    def setup_data(self, config: Any, model: Any) -> dict[str, Any]:
+    def setup_data(self, config: Any, model: Model) -> dict[str, Any]:
         sp, off = config.options["setpoint"], config.options["offset"]
         x_trim, u_trim = trim(model, sp["surge"], sp["depth"], sp["heading"])
         x0 = x_trim.copy()

@@ -34,6 +34,7 @@ from numba import njit
 
 from .. import _checks as checks
 from .._trajectory import Trajectory
+from ..models import Model
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -330,7 +331,7 @@ class AdamsBashforth(AdamsRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -352,7 +353,7 @@ class AdamsBashforth(AdamsRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -371,7 +372,7 @@ class AdamsBashforth(AdamsRule):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

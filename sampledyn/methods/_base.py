@@ -67,6 +67,7 @@ import numpy as np
 
 from .. import _checks as checks
 from .._trajectory import Trajectory, steps_on_grid, uniform_grid
+from ..models import Model
 
 __all__ = [
     "DiscreteStep",
@@ -131,7 +132,7 @@ class Predictor(Method, Protocol):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -161,7 +162,7 @@ class NoiseAnalysis(Protocol):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -173,7 +174,7 @@ class NoiseAnalysis(Protocol):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -190,7 +191,7 @@ class Estimator(Predictor, Protocol):
     """A rule that estimates the model's parameters on the data it predicts."""
 
     def estimate_and_predict(
-        self, model: Any, data: Trajectory, signal: Any = None, *, after: float | None = None
+        self, model: Model, data: Trajectory, signal: Any = None, *, after: float | None = None
     ) -> tuple[np.ndarray, Any]:
         """``(x_hat, EstimationResult)``: the estimate on ``data`` and the predictions."""
         ...
@@ -231,12 +232,12 @@ class DiscreteStep(Protocol):
         ...
 
     def linearize(
-        self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float
+        self, model: Model, t: float, z: np.ndarray, u: np.ndarray, h: float
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(A_d, B_d)`` of z+ = F(z, u) at ``(z, u)``, exact."""
         ...
 
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any:
+    def steady_state(self, model: Model, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any:
         """The state z of a constant history at ``(x, u)``."""
         ...
 
@@ -270,7 +271,7 @@ class FixedRule:
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -384,7 +385,7 @@ def uniform_step(data: Trajectory, method: str) -> float:
 
 def _cached(
     kind: str,
-    model: Any,
+    model: Model,
     data: Trajectory,
     cache: dict[Any, Any] | None,
     compute: Callable[[], Any],
@@ -406,13 +407,13 @@ def _cached(
     return value
 
 
-def sample_f(model: Any, data: Trajectory, cache: dict[Any, Any] | None = None) -> np.ndarray:
+def sample_f(model: Model, data: Trajectory, cache: dict[Any, Any] | None = None) -> np.ndarray:
     """``f(t_n, x_n, u_n)`` for every sample, shape (N, nx), shared through ``cache``."""
     return _cached("f", model, data, cache, lambda: model.f(data.t, data.x, data.u))
 
 
 def sample_jacobian(
-    model: Any, data: Trajectory, cache: dict[Any, Any] | None = None
+    model: Model, data: Trajectory, cache: dict[Any, Any] | None = None
 ) -> np.ndarray:
     """``df/dx (t_n, x_n, u_n)`` for every sample, shape (N, nx, nx), shared through
     ``cache``."""

@@ -25,6 +25,7 @@ from numba import njit
 from .. import _checks as checks
 from .._trajectory import Trajectory
 from ..exceptions import ConvergenceError
+from ..models import Model
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
 from ._program import Combination, Stage, StepProgram
 
@@ -85,7 +86,7 @@ class Tustin(FixedRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -116,7 +117,7 @@ class Tustin(FixedRule):
 
     def _newton(
         self,
-        model: Any,
+        model: Model,
         t1: np.ndarray,
         x0: np.ndarray,
         u1: np.ndarray,
@@ -142,7 +143,7 @@ class Tustin(FixedRule):
                 )
         return x
 
-    def _newton_block(self, model: Any, *block: np.ndarray) -> np.ndarray | None:
+    def _newton_block(self, model: Model, *block: np.ndarray) -> np.ndarray | None:
         """:meth:`_newton` on one block ``(t1, x0, u1, f0, x, h)`` (``x`` updated in
         place); None, or the indices of the intervals that did not converge."""
         t1, x0, u1, f0, x, h = block
@@ -189,7 +190,7 @@ class Tustin(FixedRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

@@ -45,8 +45,9 @@ from .._local_errors import sum_of_squares
 from .._noise import NOISE_REFERENCE, noise_amplitudes
 from .._trajectory import Trajectory
 from ..exceptions import ArgumentError
-from ..methods import stencil_steps
+from ..methods import Method, stencil_steps
 from ..methods._base import fixed_step
+from ..models import Model, Vehicle
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
 from ._jacobians import JacobianReport, _jacobian_bounds
@@ -223,7 +224,7 @@ def reference_at(reference: Any, h: float) -> Trajectory:
 
 
 def domain_maxima(
-    model: Any,
+    model: Vehicle,
     clean: Trajectory,
     signal: Any,
     domain: Domain | None,
@@ -265,7 +266,7 @@ def _nanmax(a: np.ndarray) -> float:
 
 
 def truncation_errors(
-    model: Any, method: Any, clean: Trajectory, signal: Any = None
+    model: Model, method: str | Method, clean: Trajectory, signal: Any = None
 ) -> tuple[float, float]:
     """Largest undisturbed local errors ``(max ||eps_eta||, max ||eps_v||)`` of ``method``
     on exact samples ``clean`` (state units)."""
@@ -275,7 +276,7 @@ def truncation_errors(
     return _nanmax(e_eta), _nanmax(e_v)
 
 
-def truncation_estimate(model: Any, m: Any, clean: Trajectory) -> tuple[float, float] | None:
+def truncation_estimate(model: Model, m: Any, clean: Trajectory) -> tuple[float, float] | None:
     """``C h max ||nabla^s f||`` per block, for the rules that extrapolate sampled f."""
     d = m.truncation_differences(model, clean)
     if d is None or d.shape[0] == 0 or m.error_constant is None:
@@ -315,7 +316,7 @@ def _apply(g: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def assemble_bound(
-    method: Any,
+    method: str | Method,
     h: float,
     eta_pct: float,
     v_pct: float,
@@ -368,8 +369,8 @@ def assemble_bound(
 
 
 def disturbed_error_bound(
-    model: Any,
-    method: Any,
+    model: Vehicle,
+    method: str | Method,
     h: float,
     eta_pct: float,
     v_pct: float,

@@ -18,6 +18,7 @@ import numpy as np
 from .. import _checks as checks
 from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
+from ..models import Model
 from ._bound import assemble_bound, jacobian_pair, subsample
 from ._domain import Domain
 from ._gains import supported_method
@@ -108,7 +109,7 @@ def usable_periods(methods: Sequence[Any], base: Trajectory, ks: Sequence[int]) 
 
 
 def error_curves(
-    model: Any,
+    model: Model,
     methods: Sequence[Any],
     base: Trajectory,
     ks: Sequence[int],

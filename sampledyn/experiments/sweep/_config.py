@@ -62,7 +62,7 @@ from typing import Any
 from ... import _checks as checks
 from ...exceptions import SweepConfigError
 from ...methods import families
-from ...models import FEEDBACK_LAWS, MODELS
+from ...models import FEEDBACK_LAWS, MODELS, Model
 from ...models._names import is_model_file, model_names
 from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
@@ -435,7 +435,7 @@ def _kind(name: Any, src: str) -> CellKind:
         raise SweepConfigError("kind", f"`kind`{_where(src)}: {exc}") from exc
 
 
-def _vehicle_name(vehicle: Any, model: Any, src: str) -> str:
+def _vehicle_name(vehicle: Any, model: Model, src: str) -> str:
     if not isinstance(vehicle, str) or not vehicle.strip():
         raise SweepConfigError(
             "vehicle", f"`vehicle`{_where(src)} must be a string, got {vehicle!r}."

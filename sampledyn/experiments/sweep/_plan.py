@@ -32,7 +32,7 @@ import numpy as np
 
 from ... import _checks as checks
 from ...exceptions import ArgumentError
-from ...models import ClosedLoop
+from ...models import ClosedLoop, Model
 from ...signals._names import input_for
 from ._cells import (
     Cell,
@@ -79,7 +79,7 @@ def _hash_numbers(values: np.ndarray) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def model_fingerprint(model: Any) -> str:
+def model_fingerprint(model: Model) -> str:
     """Hash of ``model.f`` at 16 fixed pseudo-random points, with its names and units."""
     rng = np.random.default_rng(20240607)
     x0 = np.asarray(getattr(model, "default_x0", np.zeros(model.nx)), dtype=float)
@@ -268,7 +268,7 @@ def _model(config: SweepConfig) -> Any:
         raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
 
 
-def _signals(config: SweepConfig, model: Any) -> tuple[Any, ...]:
+def _signals(config: SweepConfig, model: Model) -> tuple[Any, ...]:
     """The inputs of the grid (the objects given, or built for the plant), checked
     against the model and every h."""
     plant = model.plant if isinstance(model, ClosedLoop) else model
