@@ -14,7 +14,8 @@ Catch by kind::
   :class:`LogFormatError`, :class:`VehicleParameterError`, :class:`SweepConfigError`.
 * :class:`NotAStoreError`, :class:`SingularPitchError` (``ValueError``).
 * :class:`NumericalError` (a ``RuntimeError``): a numerical method failed on these
-  inputs; its kinds :class:`IntegrationError` and :class:`ConvergenceError`.
+  inputs; its kinds :class:`IntegrationError` (and its :class:`JumpRefused`: f jumps
+  where the motion is not defined) and :class:`ConvergenceError`.
 * :class:`EnvelopeExceeded` (a ``RuntimeError``): a sampled loop diverged.
 * :class:`JacobianUnavailableError` (a ``NotImplementedError``).
 * :class:`UsageError`: command-line options that do not apply (exit status 2).
@@ -30,6 +31,7 @@ __all__ = [
     "EnvelopeExceeded",
     "IntegrationError",
     "JacobianUnavailableError",
+    "JumpRefused",
     "LogFormatError",
     "NotAStoreError",
     "NumericalError",
@@ -108,6 +110,12 @@ class NumericalError(RuntimeError):
 
 class IntegrationError(NumericalError):
     """The exact-sample integrator could not meet its tolerance."""
+
+
+class JumpRefused(IntegrationError):
+    """f jumps across a switching surface and the motion there is not defined: both
+    sides push the state away (non-unique solutions), or it would slide on the
+    intersection of two surfaces. The message names the surface, time and state."""
 
 
 class ConvergenceError(NumericalError):

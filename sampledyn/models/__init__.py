@@ -9,6 +9,8 @@ disk) or :class:`FunctionModel` (a numba-compilable function). Closed loops:
 from ._attitude_hold import AttitudeHold as AttitudeHold
 from ._attitude_hold import roll_pitch_hold as roll_pitch_hold
 from ._auv import AUVLike as AUVLike
+
+# numba signatures of compiled right-hand sides, for the simulator's kernels
 from ._base import CompiledModel as CompiledModel
 from ._base import Model as Model
 from ._closed_loop import ClosedLoop as ClosedLoop

@@ -84,7 +84,7 @@ def test_the_integrator_uses_the_whole_table():
     """The arrays the compiled integrator freezes into its code are SciPy's 12 stages."""
     from scipy.integrate._ivp import dop853_coefficients as ref
 
-    sim_module = importlib.import_module("sampledyn._simulate")
+    sim_module = importlib.import_module("sampledyn._integrator")
     n = ref.N_STAGES
     for ours, theirs in (
         (sim_module._A, ref.A[:n, :n]),

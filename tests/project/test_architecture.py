@@ -43,6 +43,7 @@ LAYERS: dict[str, int] = {
     "sampledyn.signals": 1,
     "sampledyn.methods": 2,
     "sampledyn._simulate": 3,
+    "sampledyn._integrator": 3,
     "sampledyn._noise": 3,
     "sampledyn._local_errors": 3,
     "sampledyn._predict": 3,

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
+import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -189,8 +190,14 @@ def test_every_exception_lives_in_one_module():
         if inspect.isclass(obj) and issubclass(obj, Exception)
     }
     sampledyn_ones = {c for c in classes if c.__module__.startswith("sampledyn")}
+    # every exception class defined anywhere in the package is in sampledyn.exceptions
+    for module in list(sys.modules):
+        if module.startswith("sampledyn") and module != "sampledyn.exceptions":
+            sampledyn_ones |= {c for c in vars(sys.modules[module]).values()
+                               if inspect.isclass(c) and issubclass(c, Exception)
+                               and c.__module__ == module}  # fmt: skip
     assert {c.__module__ for c in sampledyn_ones} == {"sampledyn.exceptions"}
-    assert len(sd.exceptions.__all__) == 12
+    assert len(sd.exceptions.__all__) == 13
     assert issubclass(sd.exceptions.SweepConfigError, sd.exceptions.ArgumentError)
 
 
