@@ -11,6 +11,8 @@ from sampledyn.cli import main
 from sampledyn.cli._status import EXIT_UNAVAILABLE
 from sampledyn.experiments.sweep import run_sweep
 
+pytestmark = pytest.mark.slow  # worker processes and dask clusters
+
 distributed = pytest.importorskip("distributed")
 
 
