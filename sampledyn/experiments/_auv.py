@@ -12,11 +12,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .. import _checks as checks
 from ..exceptions import ArgumentError
 from ._studies import StudyDefinition
+
+if TYPE_CHECKING:
+    from ..models import Model
 
 __all__ = [
     "FIG2",
@@ -111,7 +114,7 @@ class AUVStudy:
     low: float = -10.0
     high: float = 10.0
     x0: tuple[float, float] = (1.0, 0.0)
-    model: Any = field(default_factory=_auv_like)
+    model: Model = field(default_factory=_auv_like)
 
     def __post_init__(self) -> None:
         from .._local_errors import ERROR_NORMS

@@ -238,7 +238,7 @@ class SweepConfig:
     summaries: tuple[str, ...] = ()
     kind: str = "prediction"
     options: Mapping[str, Any] = field(default_factory=dict)
-    model: Any = field(default=None, compare=False)
+    model: Model | None = field(default=None, compare=False)
     signals: tuple[Any, ...] | None = field(default=None, compare=False)
     reference: Any = field(default=None, compare=False)
     source: str = field(default="<dict>", compare=False)
@@ -435,7 +435,7 @@ def _kind(name: Any, src: str) -> CellKind:
         raise SweepConfigError("kind", f"`kind`{_where(src)}: {exc}") from exc
 
 
-def _vehicle_name(vehicle: Any, model: Model, src: str) -> str:
+def _vehicle_name(vehicle: Any, model: Model | None, src: str) -> str:
     if not isinstance(vehicle, str) or not vehicle.strip():
         raise SweepConfigError(
             "vehicle", f"`vehicle`{_where(src)} must be a string, got {vehicle!r}."
