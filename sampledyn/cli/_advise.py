@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..models import Model
 from ._common import add_format, names, option, pair, print_json, refuse, writable_dir
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = ["add_parser"]
 

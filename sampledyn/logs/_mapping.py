@@ -7,10 +7,12 @@ import difflib
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..exceptions import LogFormatError
-from ..models import Model, Vehicle
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = ["check_keys", "load_toml", "model_for_mapping", "table_mapping"]
 
@@ -138,6 +140,8 @@ def model_for_mapping(model: Model, mapping: Any) -> Any:
     wrench = raw.get("inputs") == "wrench" or (isinstance(ros, Mapping) and "wrench" in ros)
     if not wrench or getattr(model, "wrench_input", False):
         return model
+    from ..models import Vehicle
+
     if not isinstance(model, Vehicle):
         raise LogFormatError(
             "mapping",

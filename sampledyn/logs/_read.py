@@ -41,16 +41,18 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._trajectory import Trajectory
 from ..exceptions import LogFormatError
-from ..models import Model
 from ._mapping import load_toml, table_mapping
 from ._time import Sampling, check_policy, read_clock, sampling
 from ._units import conversion_factor, split_header
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = [
     "NAN_POLICIES",

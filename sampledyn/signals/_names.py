@@ -11,14 +11,16 @@ the sensitivity analysis (``gentle``, ``pitch``) are listed here and imported fr
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .._named import NamedTable
-from ..models import Model
 from ._base import Signal
 from ._fig6 import fig6_thrusters
 from ._multilevel import Multilevel
 from ._sinusoid import Sinusoidal
+
+if TYPE_CHECKING:  # signals do not import the models at run time
+    from ..models import Model
 
 __all__ = ["INPUTS", "input_for"]
 
