@@ -91,7 +91,7 @@ def _child_timeline(argv: list[str]) -> None:
     def mark(name: str) -> None:
         marks.setdefault(name, time.time() - t_zero)
 
-    import sampledyn.experiments as experiments
+    import sampledyn.experiments._rov as experiments
     import sampledyn.experiments.sweep._compute as compute
     import sampledyn.experiments.sweep._prediction as prediction
     import sampledyn.experiments.sweep._run as run_mod
@@ -206,8 +206,8 @@ def in_process(seeds: int) -> None:
     import sampledyn.experiments.sweep._compute as compute
     import sampledyn.experiments.sweep._store as store
     from sampledyn.experiments import ROVStudy
-    from sampledyn.experiments.sweep import plan_study, run_study
-    from sampledyn.experiments.sweep._run import _groups_per_chunk
+    from sampledyn.experiments.sweep._plan import plan_study
+    from sampledyn.experiments.sweep._run import _groups_per_chunk, run_study
 
     phases = {"simulate": 0.0, "predict": 0.0, "norms": 0.0, "noise": 0.0, "store": 0.0}
 

@@ -25,10 +25,11 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from .exceptions import FileContentError
+
 __all__ = [
     "MAX_NESTING",
     "SIZE_LIMITS",
-    "FileContentError",
     "check_nesting",
     "csv_safe",
     "csv_safe_frame",
@@ -57,11 +58,6 @@ SIZE_LIMITS: dict[str, int] = {
 #: Deepest nesting of arrays/tables (TOML) or arrays/objects (JSON) accepted: the
 #: deepest real file (a vehicle's 6x6 matrices in a table) nests 3 levels.
 MAX_NESTING = 64
-
-
-class FileContentError(ValueError):
-    """A file that cannot be what it should be (not text, nested too deep, not TOML);
-    the message names the file."""
 
 
 def regular_file(
@@ -111,8 +107,9 @@ def regular_file(
     limit = SIZE_LIMITS.get(kind) if limit is None else limit
     if limit is not None and st.st_size > limit:
         raise FileContentError(
+            str(p),
             f"{kind} {str(p)!r} is {st.st_size / MiB:.1f} MiB, above the {limit / MiB:g} MiB "
-            f"a {kind} may have; is it the right file?"
+            f"a {kind} may have; is it the right file?",
         )
     return p
 
@@ -132,8 +129,9 @@ def read_text(path: str | os.PathLike[str], kind: str, *, limit: int | None = No
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise FileContentError(
+            str(p),
             f"{kind} {str(p)!r} is not UTF-8 text (byte {exc.start}: "
-            f"{data[exc.start : exc.start + 1]!r}); save it as UTF-8"
+            f"{data[exc.start : exc.start + 1]!r}); save it as UTF-8",
         ) from None
 
 
@@ -162,16 +160,18 @@ def check_nesting(value: Any, where: str) -> Any:
     :class:`FileContentError` naming ``where``."""
     if _depth(value) > MAX_NESTING:
         raise FileContentError(
+            where,
             f"{where}: arrays or tables nested deeper than {MAX_NESTING} levels; no "
-            "sampledyn file nests more than a few"
+            "sampledyn file nests more than a few",
         )
     return value
 
 
 def _too_deep(where: str) -> FileContentError:
     return FileContentError(
+        where,
         f"{where}: nested too deep to parse (more than {MAX_NESTING} levels are refused); "
-        "no sampledyn file nests more than a few"
+        "no sampledyn file nests more than a few",
     )
 
 
@@ -187,7 +187,7 @@ def parse_toml(text: str, where: str) -> dict[str, Any]:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise FileContentError(f"{where}: not valid TOML: {exc}") from None
+        raise FileContentError(where, f"{where}: not valid TOML: {exc}") from None
     except RecursionError:
         raise _too_deep(where) from None
     except ValueError as exc:  # int() of a number too long to be one (4300 digits)
@@ -199,8 +199,9 @@ def _too_long(where: str, exc: Exception) -> FileContentError:
     digits = re.search(r"value has (\d+) digits", str(exc))
     said = f" ({digits[1]} digits)" if digits else ""
     return FileContentError(
+        where,
         f"{where}: holds an integer too long to read{said}; no sampledyn value has more than "
-        "a few dozen digits"
+        "a few dozen digits",
     )
 
 
@@ -211,7 +212,7 @@ def parse_json(text: str | bytes, where: str) -> Any:
     except RecursionError:
         raise _too_deep(where) from None
     except json.JSONDecodeError as exc:
-        raise FileContentError(f"{where}: not valid JSON: {exc}") from None
+        raise FileContentError(where, f"{where}: not valid JSON: {exc}") from None
     except ValueError as exc:
         raise _too_long(where, exc) from None
     return check_nesting(data, where)

@@ -61,7 +61,8 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.extending import intrinsic
 
 from . import _dop853 as _dop
-from .models import JAC_SIG, JAC_TYPE, RHS_TYPE, RO1, RO2, decide, sliding_weight
+from .models._base import JAC_SIG, JAC_TYPE, RHS_TYPE, RO1, RO2
+from .models._jumps import decide, sliding_weight
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
@@ -982,7 +983,7 @@ def integrate_intervals(
     """:func:`integrate` for a model without jumps, intervals n_start..n_stop-1 in one
     call, with the step budget of :data:`DEFAULT_MAX_STEPS` per interval; returns
     (status, the next step proposal). For compiled callers (the sampled loop of
-    :func:`sampledyn.discretize.run_loop`), which pass :func:`no_gradient` as ``grad``
+    :func:`sampledyn.run_loop`), which pass :func:`no_gradient` as ``grad``
     (a kernel referred to as a global would keep this function out of numba's disk
     cache); ``x0`` is not read (X[n_start] is)."""
     nx = X.shape[1]

@@ -125,7 +125,7 @@ def rexrov_data():
     import warnings
 
     import sampledyn as sd
-    from sampledyn.experiments import fig7_vehicle
+    from sampledyn.experiments._rov import fig7_vehicle
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the file's added-mass symmetry note

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._common import (
     add_format,
@@ -16,6 +16,9 @@ from ._common import (
     registry,
     writable_file,
 )
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = ["add_parser"]
 
@@ -38,7 +41,7 @@ def _check_estimate(rules: tuple[str, ...]) -> None:
             )
 
 
-def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[str, Any]:
+def _json(args: argparse.Namespace, model: Model, data: Any, result: Any) -> dict[str, Any]:
     """The document of ``evaluate --format json`` (keys in docs/cli.md)."""
     tr = data.traj
     est = result.estimation
@@ -75,7 +78,7 @@ def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[
 
 def _inputs(args: argparse.Namespace) -> dict[str, Any]:
     """The files ``evaluate`` reads (a built-in vehicle name is none)."""
-    from ..models import is_model_file
+    from ..models._names import is_model_file
 
     vehicle = args.vehicle if is_model_file(args.vehicle) else None
     mapping = args.mapping if isinstance(args.mapping, str) else None
@@ -103,8 +106,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if out is not None:
         refuse_overwriting_inputs(out, "--out", _inputs(args))
 
-    from ..experiments.sweep import build_model
-    from ..logs import evaluate_log, model_for_mapping, read_log
+    from ..experiments.sweep._inputs import build_model
+    from ..logs import evaluate_log, read_log
+    from ..logs._mapping import model_for_mapping
 
     with option("--vehicle"):
         model = build_model(args.vehicle)
@@ -124,7 +128,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         )
     result = evaluate_log(model, data, [*methods, *estimate], norm=args.norm, after=args.after)
     if out is not None:
-        from ..report import write_csv
+        from ..report._tables import write_csv
 
         write_csv(result.rows, out)
     if args.format == "json":
@@ -166,8 +170,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     """Add the ``evaluate`` command to the subparsers ``sub``."""
-    from ..errors import ERROR_NORMS
-    from ..logs import GAP_POLICIES, TIME_TOLERANCE
+    from .._local_errors import ERROR_NORMS
+    from ..logs._read import TIME_TOLERANCE
+    from ..logs._time import GAP_POLICIES
 
     ev = sub.add_parser(
         "evaluate",

@@ -141,7 +141,7 @@ def _is_terminal(stream: Any) -> bool:
 @contextmanager
 def _memory(args: argparse.Namespace) -> Iterator[None]:
     """``--max-memory`` for this command and its worker processes."""
-    from .._limits import memory_limit, parse_bytes
+    from .._checks import memory_limit, parse_bytes
 
     size = getattr(args, "max_memory", None)
     if size is not None:
@@ -151,6 +151,17 @@ def _memory(args: argparse.Namespace) -> Iterator[None]:
             raise UsageError(str(exc)) from None
     with memory_limit(size):
         yield
+
+
+def _options(parser: argparse.ArgumentParser, command: str) -> dict[str, str]:
+    """The options of ``command``: dest -> its long flag (for naming them in errors)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            sub = action.choices[command]
+            return {a.dest: flags[0] for a in sub._actions
+                    for flags in [[f for f in a.option_strings if f.startswith("--")]]
+                    if flags and a.dest != "help"}  # fmt: skip
+    return {}
 
 
 def _fail(status: int, text: str, debug: bool) -> NoReturn:
@@ -225,7 +236,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         note = getattr(args, "on_interrupt", None)
         _fail(status, f"{kind}" + (f"; {note}" if note else ""), debug)
     except Exception as exc:
-        status, text = classify(exc)
+        status, text = classify(exc, _options(parser, args.command))
         _fail(status, text, debug)
     return int(result or 0)
 

@@ -87,7 +87,7 @@ def _table_columns(df: Any) -> list[str]:
     """The main columns of the cells table: the grid and the errors, the vehicle if
     the store holds several, and the named results of the controller studies
     (columns that are empty in every row are left out)."""
-    from ..experiments.sweep import CELL_COLUMNS
+    from ..experiments.sweep._store import CELL_COLUMNS
 
     stored = {name for name, _type in CELL_COLUMNS}
     cols = ["vehicle"] if df["vehicle"].nunique() > 1 else []
@@ -105,7 +105,7 @@ def _cmd_results(args: argparse.Namespace) -> int:
     if out is not None:
         refuse_overwriting_inputs(out, "--out", _store_files(args.store))
 
-    from ..experiments.sweep import load_results as load
+    from ..experiments.sweep._store import load_results as load
 
     with option("STORE"):
         df = load(args.store, args.table, kind=args.kind)
@@ -147,7 +147,8 @@ def _store_files(store: str) -> dict[str, str]:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from ..report import REPORT_FILES, write_report
+    from ..report import write_report
+    from ..report._sweep_report import REPORT_FILES
 
     out = writable_dir(args.out, "--out")
     refuse_overwriting_inputs(out, "--out", _store_files(args.store), writes=REPORT_FILES)

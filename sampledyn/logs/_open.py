@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from .._files import regular_file
+from ..models import Model
 from ._formats import detect_format
 from ._read import TIME_TOLERANCE, LogData
 
@@ -16,7 +17,7 @@ __all__ = ["read_log"]
 
 def read_log(
     path: str | os.PathLike[str],
-    model: Any,
+    model: Model,
     *,
     mapping: Any = None,
     nan: str = "error",

@@ -41,14 +41,18 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..exceptions import LogFormatError
 from ._mapping import load_toml, table_mapping
 from ._time import ClockReader, Sampling, check_policy, sampling
-from ._units import LogFormatError, conversion_factor, split_header
+from ._units import conversion_factor, split_header
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = [
     "NAN_POLICIES",
@@ -128,7 +132,7 @@ def _row(i: int, csv: bool) -> str:
     return f"data row {i + 1}" + (f" (line {i + 2})" if csv else "")
 
 
-def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
+def _aliases(model: Model) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
     states: list[tuple[str, ...]] = [(str(n),) for n in model.state_names]
     inputs: list[tuple[str, ...]] = []
     for i, (n, unit) in enumerate(zip(model.input_names, model.input_units, strict=True)):
@@ -138,7 +142,7 @@ def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
 
 
 def _columns(
-    columns: list[Any], model: Any, mapping: Any, src: str
+    columns: list[Any], model: Model, mapping: Any, src: str
 ) -> tuple[dict[str, tuple[str, str | None]], list[str]]:
     """Model quantity -> (log column, unit) for t, every state and every input; and
     the log's columns named like a numbered input the model does not have (n7 on a
@@ -216,7 +220,7 @@ def _stray_inputs(
     ]
 
 
-def _count_inputs(model: Any) -> str:
+def _count_inputs(model: Model) -> str:
     """'vehicle bluerov2_heavy has 6 thrusters (inputs n_r1..n_r6)' or the like."""
     names = list(model.input_names)
     listed = f"{names[0]}..{names[-1]}" if len(names) > 2 else ", ".join(names)
@@ -227,7 +231,7 @@ def _count_inputs(model: Any) -> str:
     return f"{who} has {len(names)} input{'s' if len(names) != 1 else ''} ({listed})"
 
 
-def _check_stray_inputs(stray: list[str], zero: list[bool], model: Any, src: str) -> list[str]:
+def _check_stray_inputs(stray: list[str], zero: list[bool], model: Model, src: str) -> list[str]:
     """Refuse input columns the model has no input for, unless they are 0 throughout
     (thrusters of a bigger vehicle that were off: leaving them out loses nothing);
     then say so in the notes. ``zero[i]``: column ``stray[i]`` holds numbers, all 0."""
@@ -282,7 +286,7 @@ def _nan_policy(blocks: _Blocks, nan: str, src: str, csv: bool) -> tuple[np.ndar
 
 
 def _check_angles(
-    x: np.ndarray, model: Any, cols: dict[str, tuple[str, str | None]], src: str
+    x: np.ndarray, model: Model, cols: dict[str, tuple[str, str | None]], src: str
 ) -> None:
     for k, (name, unit) in enumerate(zip(model.state_names, model.state_units, strict=True)):
         if unit != "rad":
@@ -304,7 +308,7 @@ def _check_angles(
             )
 
 
-def _unwrap_angles(data: np.ndarray, model: Any) -> list[str]:
+def _unwrap_angles(data: np.ndarray, model: Model) -> list[str]:
     """Unwrap the angle columns of ``data`` in place (NaN rows skipped); notes."""
     notes = []
     for k, unit in enumerate(model.state_units):
@@ -494,7 +498,7 @@ def _shrink(a: np.ndarray, rows: int) -> np.ndarray:
 
 def log_from_frame(
     frame: Any,
-    model: Any,
+    model: Model,
     *,
     source: str = "<frame>",
     mapping: Any = None,
@@ -649,7 +653,7 @@ def _refuse_repeated_columns(path: Path) -> None:
         )
 
 
-def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
+def read_table(path: Path, model: Model, mapping: Any) -> tuple[Any, bool]:
     """A CSV or Parquet file as a DataFrame; a CSV's time column is read as text, so
     that decimal stamps (1700000000.123456789) are read exactly."""
     import pandas as pd
@@ -678,7 +682,7 @@ def _count_rows(path: Path) -> int:
     return lines + 1
 
 
-def _table_chunks(path: Path, model: Any, mapping: Any) -> tuple[Any, int, list[Any], bool]:
+def _table_chunks(path: Path, model: Model, mapping: Any) -> tuple[Any, int, list[Any], bool]:
     """(chunks of the columns the model uses, a bound of the rows, every column, csv)
     of a CSV or Parquet file, read lazily: a CSV's time column as text, so that
     decimal stamps (1700000000.123456789) are read exactly."""
@@ -701,7 +705,7 @@ def _table_chunks(path: Path, model: Any, mapping: Any) -> tuple[Any, int, list[
     return chunks, _count_rows(path), columns, True
 
 
-def read_table_log(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+def read_table_log(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
     """A CSV or Parquet log (the reader of the "csv" and "parquet" formats), read in
     chunks of :data:`CHUNK_ROWS` rows: memory about the arrays returned (10 million
     rows of 21 columns: benchmarks/bench_log_memory.py)."""

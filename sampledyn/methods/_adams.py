@@ -32,8 +32,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from .._limits import check_ab_order
+from .. import _checks as checks
 from .._trajectory import Trajectory
+from ..models import Model
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -69,12 +70,9 @@ STABILITY_INTERVAL_MIN = 0.05
 
 
 def _check_order(s: Any) -> int:
-    if isinstance(s, bool) or not isinstance(s, int | np.integer):
-        raise TypeError(f"order `s` must be an int, got {type(s).__name__}.")
-    if s < 1:
-        raise ValueError(f"order `s` must be >= 1, got {s}.")
-    check_ab_order(int(s), "Adams-Bashforth AB")  # the coefficients' cost and stability
-    return int(s)
+    s = checks.count(s, "s", what="order")
+    checks.check_ab_order(s)  # the coefficients' cost and their stability
+    return s
 
 
 @lru_cache(maxsize=64)
@@ -335,7 +333,7 @@ class AdamsBashforth(AdamsRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -357,7 +355,7 @@ class AdamsBashforth(AdamsRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -376,7 +374,7 @@ class AdamsBashforth(AdamsRule):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

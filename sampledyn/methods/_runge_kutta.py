@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from .._trajectory import Trajectory
+from ..models import Model
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -202,7 +203,7 @@ class RungeKutta(FixedRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -278,7 +279,7 @@ class RungeKutta(FixedRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

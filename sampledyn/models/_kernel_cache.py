@@ -32,9 +32,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..exceptions import UnsafeCacheError
+
 __all__ = [
     "CACHE_ENV",
-    "UnsafeCacheError",
     "compile_or_rebuild",
     "ensure_source",
     "kernel_dir",
@@ -44,10 +45,6 @@ __all__ = [
 CACHE_ENV = "SAMPLEDYN_CACHE_DIR"
 _NUMBA_ENV = "NUMBA_CACHE_DIR"
 _POSIX = hasattr(os, "getuid")
-
-
-class UnsafeCacheError(PermissionError):
-    """A cache folder or file that others could have written: refused, not used."""
 
 
 def _fix(path: Path) -> str:

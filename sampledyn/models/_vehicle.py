@@ -46,6 +46,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from ..exceptions import VehicleParameterError
 from ._base import CompiledModel, LinearForm, _as_batch, readonly
 from ._rigid_body import (
     check_pitch,
@@ -64,7 +66,7 @@ from ._vehicle_kernels import (
     vehicle_switch,
 )
 
-__all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "VehicleParameterError", "symmetrized"]
+__all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "symmetrized"]
 
 _ETA_NAMES = ("x", "y", "z", "phi", "theta", "psi")
 _V_NAMES = ("u", "v", "w", "p", "q", "r")
@@ -140,14 +142,6 @@ PARAM_UNITS: dict[str, str] = {
     "n_max": "rpm",
     "T_n": "s",
 }
-
-
-class VehicleParameterError(ValueError):
-    """A bad vehicle parameter; ``argument`` names the constructor argument."""
-
-    def __init__(self, argument: str, message: str) -> None:
-        super().__init__(message)
-        self.argument = argument
 
 
 def _array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) -> np.ndarray:
@@ -305,15 +299,10 @@ def _check_declaration(
 
 
 def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise VehicleParameterError(name, f"`{name}` must be a number, got {value!r}.")
-    v = float(value)
-    if not math.isfinite(v):
-        raise VehicleParameterError(name, f"`{name}` must be finite, got {value!r}.")
+    check = checks.positive if positive else checks.number
+    v = check(value, name, error=VehicleParameterError, types=VehicleParameterError)
     if abs(v) > MAX_PARAMETER:
         raise VehicleParameterError(name, _too_big(name, v))
-    if positive and v <= 0:
-        raise VehicleParameterError(name, f"`{name}` must be > 0, got {v}.")
     if nonneg and v < 0:
         raise VehicleParameterError(name, f"`{name}` must be >= 0, got {v}.")
     return v
@@ -490,109 +479,9 @@ class Vehicle(CompiledModel):
 
     def __post_init__(self) -> None:
         put = object.__setattr__
-        put(self, "mass", _scalar("mass", self.mass, positive=True))
-        inertia = _array("inertia", self.inertia, ((3,), (3, 3)))
-        if inertia.ndim == 1 and inertia.min() <= 0:
-            raise VehicleParameterError(
-                "inertia", f"`inertia` must be > 0, got {_frozen(inertia)}."
-            )
-        if inertia.ndim == 2:
-            inertia = symmetrized("inertia", inertia, stacklevel=4)
-            eig = np.linalg.eigvalsh(inertia)
-            if eig.min() <= 0:
-                raise VehicleParameterError(
-                    "inertia",
-                    "`inertia` must be a positive definite tensor, its eigenvalues are "
-                    f"{np.round(eig, 6).tolist()} kg m^2.",
-                )
-        put(self, "inertia", _frozen(inertia))
-        added = _array("added_mass", self.added_mass, ((6,), (6, 6)))
-        if added.ndim == 2:
-            added = symmetrized("added_mass", added, stacklevel=4)
-        put(self, "added_mass", _frozen(added))
-        put(
-            self,
-            "linear_damping",
-            _frozen(_array("linear_damping", self.linear_damping, ((6,), (6, 6)))),
-        )
-        if np.shape(self.quadratic_damping) == (6, 6):
-            raise VehicleParameterError(
-                "quadratic_damping", f"`quadratic_damping` {QUADRATIC_IS_DIAGONAL}"
-            )
-        for name, size in (
-            ("r_G", 3),
-            ("r_B", 3),
-            ("quadratic_damping", 6),
-            ("current", 6),
-            ("cable_force", 6),
-        ):
-            put(self, name, _frozen(_array(name, getattr(self, name), ((size,),))))
-        put(self, "volume", _scalar("volume", self.volume, nonneg=True))
-        for name in ("rho", "g", "n_max", "lag_time_constant"):
-            put(self, name, _scalar(name, getattr(self, name), positive=True))
-        for name in ("K1", "K2"):
-            put(self, name, _scalar(name, getattr(self, name)))
-        put(self, "pitch_limit_deg", _scalar("pitch_limit_deg", self.pitch_limit_deg))
-        put(self, "pitch_tolerance_deg", _scalar("pitch_tolerance_deg", self.pitch_tolerance_deg))
-        if not 0 < self.pitch_tolerance_deg < 90 or not 0 < self.pitch_limit_deg < 90:
-            raise VehicleParameterError(
-                "pitch_limit_deg",
-                "`pitch_limit_deg` and `pitch_tolerance_deg` must be in (0, 90) deg, got "
-                f"{self.pitch_limit_deg} and {self.pitch_tolerance_deg}.",
-            )
-        if self.current_frame not in ("body", "ned"):
-            raise VehicleParameterError(
-                "current_frame",
-                f"`current_frame` must be 'body' or 'ned', got {self.current_frame!r}.",
-            )
-        if not isinstance(self.thruster_lag, bool | np.bool_):
-            raise VehicleParameterError(
-                "thruster_lag", f"`thruster_lag` must be True or False, got {self.thruster_lag!r}."
-            )
-        put(self, "thruster_lag", bool(self.thruster_lag))
-        if not isinstance(self.wrench_input, bool | np.bool_):
-            raise VehicleParameterError(
-                "wrench_input", f"`wrench_input` must be True or False, got {self.wrench_input!r}."
-            )
-        put(self, "wrench_input", bool(self.wrench_input))
-        if self.wrench_input and self.thruster_lag:
-            raise VehicleParameterError(
-                "wrench_input",
-                "`wrench_input` bypasses the thrusters, so it cannot have `thruster_lag`; "
-                "switch one of them off.",
-            )
-        put(self, "sources", dict(self.sources))
-
-        pos = np.asarray(self.thruster_positions, dtype=float)
-        dirs = np.asarray(self.thruster_directions, dtype=float)
-        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
-            raise VehicleParameterError(
-                "thruster_positions",
-                f"`thruster_positions` must have shape (N, 3) with N >= 1, got {pos.shape}.",
-            )
-        if dirs.shape != pos.shape:
-            raise VehicleParameterError(
-                "thruster_directions",
-                f"`thruster_directions` must have the shape of `thruster_positions` "
-                f"{pos.shape}, got {dirs.shape}.",
-            )
-        if not (np.isfinite(pos).all() and np.isfinite(dirs).all()):
-            raise VehicleParameterError(
-                "thruster_positions", "thruster positions and directions must be finite."
-            )
-        norms = np.linalg.norm(dirs, axis=1)
-        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-3)
-        if bad.size:
-            i = int(bad[0])
-            raise VehicleParameterError(
-                "thruster_directions",
-                f"`thruster_directions[{i}]` must be a unit vector, its norm is {norms[i]:.6g}; "
-                "divide it by its norm.",
-            )
-        dirs = dirs / norms[:, None]
-        put(self, "thruster_positions", tuple(tuple(float(c) for c in r) for r in pos))
-        put(self, "thruster_directions", tuple(tuple(float(c) for c in d) for d in dirs))
-
+        self._check_masses()
+        self._check_scalars()
+        pos, dirs = self._check_thrusters()
         m_rb = rigid_body_mass_matrix(self.mass, self.inertia_tensor, self.r_G)
         M = m_rb + self.added_mass_matrix
         if not np.allclose(M, M.T, rtol=0.0, atol=1e-12 * np.abs(M).max()):
@@ -659,6 +548,123 @@ class Vehicle(CompiledModel):
             put(self, "input_units", ("rpm",) * n_thr)
 
     # ------------------------------------------------------------------ attributes
+
+    def _check_masses(self) -> None:
+        """Mass, inertia, added mass, damping and the body vectors, checked and frozen
+        (a symmetric matrix printed to a few digits is symmetrised, with a warning)."""
+        put = object.__setattr__
+        put(self, "mass", _scalar("mass", self.mass, positive=True))
+        inertia = _array("inertia", self.inertia, ((3,), (3, 3)))
+        if inertia.ndim == 1 and inertia.min() <= 0:
+            raise VehicleParameterError(
+                "inertia", f"`inertia` must be > 0, got {_frozen(inertia)}."
+            )
+        if inertia.ndim == 2:
+            inertia = symmetrized("inertia", inertia, stacklevel=5)
+            eig = np.linalg.eigvalsh(inertia)
+            if eig.min() <= 0:
+                raise VehicleParameterError(
+                    "inertia",
+                    "`inertia` must be a positive definite tensor, its eigenvalues are "
+                    f"{np.round(eig, 6).tolist()} kg m^2.",
+                )
+        put(self, "inertia", _frozen(inertia))
+        added = _array("added_mass", self.added_mass, ((6,), (6, 6)))
+        if added.ndim == 2:
+            added = symmetrized("added_mass", added, stacklevel=5)
+        put(self, "added_mass", _frozen(added))
+        put(
+            self,
+            "linear_damping",
+            _frozen(_array("linear_damping", self.linear_damping, ((6,), (6, 6)))),
+        )
+        if np.shape(self.quadratic_damping) == (6, 6):
+            raise VehicleParameterError(
+                "quadratic_damping", f"`quadratic_damping` {QUADRATIC_IS_DIAGONAL}"
+            )
+        for name, size in (
+            ("r_G", 3),
+            ("r_B", 3),
+            ("quadratic_damping", 6),
+            ("current", 6),
+            ("cable_force", 6),
+        ):
+            put(self, name, _frozen(_array(name, getattr(self, name), ((size,),))))
+
+    def _check_scalars(self) -> None:
+        """The scalar parameters and the switches, checked."""
+        put = object.__setattr__
+        put(self, "volume", _scalar("volume", self.volume, nonneg=True))
+        for name in ("rho", "g", "n_max", "lag_time_constant"):
+            put(self, name, _scalar(name, getattr(self, name), positive=True))
+        for name in ("K1", "K2"):
+            put(self, name, _scalar(name, getattr(self, name)))
+        put(self, "pitch_limit_deg", _scalar("pitch_limit_deg", self.pitch_limit_deg))
+        put(self, "pitch_tolerance_deg", _scalar("pitch_tolerance_deg", self.pitch_tolerance_deg))
+        if not 0 < self.pitch_tolerance_deg < 90 or not 0 < self.pitch_limit_deg < 90:
+            raise VehicleParameterError(
+                "pitch_limit_deg",
+                "`pitch_limit_deg` and `pitch_tolerance_deg` must be in (0, 90) deg, got "
+                f"{self.pitch_limit_deg} and {self.pitch_tolerance_deg}.",
+            )
+        if self.current_frame not in ("body", "ned"):
+            raise VehicleParameterError(
+                "current_frame",
+                f"`current_frame` must be 'body' or 'ned', got {self.current_frame!r}.",
+            )
+        if not isinstance(self.thruster_lag, bool | np.bool_):
+            raise VehicleParameterError(
+                "thruster_lag", f"`thruster_lag` must be True or False, got {self.thruster_lag!r}."
+            )
+        put(self, "thruster_lag", bool(self.thruster_lag))
+        if not isinstance(self.wrench_input, bool | np.bool_):
+            raise VehicleParameterError(
+                "wrench_input", f"`wrench_input` must be True or False, got {self.wrench_input!r}."
+            )
+        put(self, "wrench_input", bool(self.wrench_input))
+        if self.wrench_input and self.thruster_lag:
+            raise VehicleParameterError(
+                "wrench_input",
+                "`wrench_input` bypasses the thrusters, so it cannot have `thruster_lag`; "
+                "switch one of them off.",
+            )
+        put(self, "sources", dict(self.sources))
+
+    def _check_thrusters(self) -> tuple[np.ndarray, np.ndarray]:
+        """Thruster positions and unit directions, checked and frozen; returns them as
+        arrays (directions normalised)."""
+        put = object.__setattr__
+        pos = np.asarray(self.thruster_positions, dtype=float)
+        dirs = np.asarray(self.thruster_directions, dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
+            raise VehicleParameterError(
+                "thruster_positions",
+                f"`thruster_positions` must have shape (N, 3) with N >= 1, got {pos.shape}.",
+            )
+        if dirs.shape != pos.shape:
+            raise VehicleParameterError(
+                "thruster_directions",
+                f"`thruster_directions` must have the shape of `thruster_positions` "
+                f"{pos.shape}, got {dirs.shape}.",
+            )
+        if not (np.isfinite(pos).all() and np.isfinite(dirs).all()):
+            raise VehicleParameterError(
+                "thruster_positions", "thruster positions and directions must be finite."
+            )
+        norms = np.linalg.norm(dirs, axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-3)
+        if bad.size:
+            i = int(bad[0])
+            raise VehicleParameterError(
+                "thruster_directions",
+                f"`thruster_directions[{i}]` must be a unit vector, its norm is {norms[i]:.6g}; "
+                "divide it by its norm.",
+            )
+        dirs = dirs / norms[:, None]
+        put(self, "thruster_positions", tuple(tuple(float(c) for c in r) for r in pos))
+        put(self, "thruster_directions", tuple(tuple(float(c) for c in d) for d in dirs))
+        return pos, dirs
+
     @property
     def params(self) -> dict[str, float]:
         """Scalar parameters by name (units in :attr:`param_units`).

@@ -2,7 +2,8 @@ import csv
 
 import pytest
 
-from sampledyn.cli import EXIT_BAD_VALUE, build_parser, main
+from sampledyn.cli import build_parser, main
+from sampledyn.cli._status import EXIT_BAD_VALUE
 
 
 def test_help_lists_every_command(capsys):

@@ -21,17 +21,9 @@ from _faults import CLI, Unavailable, remount_readonly, tmpfs
 from _sweep_helpers import write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import (
-    EXIT_BAD_VALUE,
-    EXIT_FILE,
-    EXIT_INTERNAL,
-    EXIT_PIPE,
-    EXIT_STATUSES,
-    EXIT_USAGE,
-    build_parser,
-    main,
-)
-from sampledyn.errors import ERROR_NORMS
+from sampledyn._local_errors import ERROR_NORMS
+from sampledyn.cli import EXIT_STATUSES, build_parser, main
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_FILE, EXIT_INTERNAL, EXIT_PIPE, EXIT_USAGE
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_LOG = ROOT / "examples" / "rov_log.csv"
@@ -124,7 +116,7 @@ def test_missing_store_and_data_files(tmp_path, capsys):
 
 
 def _store_with_rows(path: Path, n: int) -> Path:
-    from sampledyn.experiments.sweep import ResultStore
+    from sampledyn.experiments.sweep._store import ResultStore
 
     with ResultStore(path) as st:
         run = st.start_run(backend="test", planned=n, skipped=0, config={})
@@ -389,8 +381,9 @@ def test_non_plotting_commands_do_not_import_matplotlib(tmp_path):
 def test_a_numerical_failure_is_one_line_with_its_own_status(capsys, monkeypatch):
     """A rule that cannot solve its step on these inputs (advise running T at large h
     hit this) is not an 'internal error': exit 7, one line that says what to change."""
-    from sampledyn.cli import EXIT_NUMERICAL, _methods
-    from sampledyn.methods import ConvergenceError
+    from sampledyn.cli import _methods
+    from sampledyn.cli._status import EXIT_NUMERICAL
+    from sampledyn.exceptions import ConvergenceError
 
     def fails(args):
         raise ConvergenceError("Tustin's Newton iteration did not converge; use a smaller h.")
@@ -412,7 +405,7 @@ def test_a_numerical_failure_is_one_line_with_its_own_status(capsys, monkeypatch
         (["reproduce", "fig3", "--T", "inf"], "`T` must be a finite number, got inf"),
         (["reproduce", "fig2", "--T", "nan"], "`T` must be a finite number, got nan"),
         (["advise", "--vehicle", "bluerov2_heavy", "--T", "inf", "--no-validate"],
-         "`T` must be a finite number of seconds > 0, got inf"),
+         "--T: reference run length `T` must be a finite number, got inf"),
         (["advise", "--vehicle", "bluerov2_heavy", "--T", "0.05", "--no-validate"],
          "`T` = 0.05 s is too short for h = 0.1 s"),
         (["advise", "--vehicle", "bluerov2_heavy", "--workers", "0"],
@@ -457,10 +450,11 @@ def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(
         (["reproduce", "closed-loop", "--T", "50"], EXIT_BAD_VALUE,
          "`after` must be in [0, T=50) s, got 100.0"),
         (["reproduce", "multistep", "--T", "-3"], EXIT_BAD_VALUE,
-         "`T` must be > 0, got -3.0"),
-        (["reproduce", "fig3", "--seed", "-1"], EXIT_BAD_VALUE, "`seed` (--seed)"),
+         "--T: `T` must be a finite number > 0, got -3.0"),
+        (["reproduce", "fig3", "--seed", "-1"], EXIT_BAD_VALUE,
+         "--seed: the multilevel input's `seed` must be an int >= 0, got -1"),
         (["advise", "--vehicle", "bluerov2_heavy", "--seed", "-1"], EXIT_BAD_VALUE,
-         "`base_seed` (--seed) must be an int >= 0"),
+         "--seed: `base_seed` must be an int >= 0"),
         (["advise", "--vehicle", "bluerov2_heavy", "--methods", ""], EXIT_USAGE,
          "`--methods` is empty"),
         (["evaluate", "--data", str(EXAMPLE_LOG), "--vehicle", "bluerov2_heavy",

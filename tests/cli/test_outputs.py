@@ -17,9 +17,11 @@ from pathlib import Path
 import pytest
 from _sweep_helpers import write_sweep
 
-from sampledyn.cli import EXIT_FILE, EXIT_USAGE, main
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_FILE, EXIT_USAGE
 from sampledyn.experiments.sweep import load_config, run_sweep
-from sampledyn.report import MANIFEST, write_csv
+from sampledyn.report._sweep_report import MANIFEST
+from sampledyn.report._tables import write_csv
 
 EXAMPLE_LOG = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 VEHICLE = Path(__file__).resolve().parents[2] / "sampledyn" / "models" / "vehicles"

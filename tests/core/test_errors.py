@@ -29,7 +29,7 @@ def test_local_errors_sign_is_measurement_minus_prediction():
 def _old_error_norms(errors, t, kinds, after=None, components=None, where=None):
     """The error norms as they were computed before the window (main 04f6bc2): the
     reference the windowed computation must equal bit for bit."""
-    from sampledyn.methods import uniform_grid
+    from sampledyn._trajectory import uniform_grid
 
     e = np.asarray(errors, dtype=float)
     if components is not None:
@@ -61,7 +61,7 @@ def _old_error_norms(errors, t, kinds, after=None, components=None, where=None):
 @pytest.mark.parametrize("grid", ["uniform", "jittered", "unsorted"])
 @pytest.mark.filterwarnings("ignore:invalid value encountered in sqrt")
 def test_error_norms_on_a_window_equal_the_former_ones_bit_for_bit(grid):
-    from sampledyn.errors import ERROR_NORMS, error_norms, error_window
+    from sampledyn._local_errors import ERROR_NORMS, error_norms, error_window
 
     rng = np.random.default_rng(3)
     n = 5000
@@ -90,7 +90,7 @@ def test_error_norms_on_a_window_equal_the_former_ones_bit_for_bit(grid):
 def test_sum_of_squares_orders():
     """Index sets: the sum from the first index on, each square rounded (what numpy's
     einsum gives on the gathered columns); slices: einsum of the rows."""
-    from sampledyn.errors import sum_of_squares
+    from sampledyn._local_errors import sum_of_squares
 
     rng = np.random.default_rng(5)
     e = rng.standard_normal((20000, 12)) * np.exp(rng.uniform(-30, 30, (20000, 12)))
@@ -109,7 +109,7 @@ def test_sum_of_squares_orders():
 
 
 def test_local_errors_into_the_prediction(rexrov_data):
-    from sampledyn.errors import local_errors
+    from sampledyn._local_errors import local_errors
 
     veh, _sig, data = rexrov_data
     x_hat = sd.predict("AB4", veh, data)

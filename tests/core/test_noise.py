@@ -10,7 +10,7 @@ import sampledyn as sd
 def test_add_noise_is_the_former_formula(rexrov_data):
     import math
 
-    from sampledyn.noise import NOISE_REFERENCE, noise_amplitudes
+    from sampledyn._noise import NOISE_REFERENCE, noise_amplitudes
 
     veh, _sig, data = rexrov_data
     clean = data.clean

@@ -25,7 +25,7 @@ def test_trajectory_shapes(change, message):
 
 
 def test_trajectory_checks_are_remembered_and_unchanged():
-    from sampledyn.methods import uniform_grid
+    from sampledyn._trajectory import uniform_grid
 
     t = np.arange(100) * 0.01
     x = np.zeros((100, 2))

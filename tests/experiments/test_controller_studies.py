@@ -28,13 +28,12 @@ from _sweep_helpers import kill_when_stored
 
 import sampledyn as sd
 from sampledyn.cli import main
+from sampledyn.exceptions import SweepConfigError
 from sampledyn.experiments import ClosedLoopStudy, MultistepStudy
-from sampledyn.experiments.sweep import (
-    SweepConfigError,
-    available_cell_kinds,
-    load_config,
-    plan_study,
-)
+from sampledyn.experiments._multistep import run_multistep_study
+from sampledyn.experiments.sweep import load_config
+from sampledyn.experiments.sweep._cells import available_cell_kinds
+from sampledyn.experiments.sweep._plan import plan_study
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = Path(__file__).parent / "data"
@@ -144,7 +143,7 @@ def test_a_closed_loop_sweep_file_plans_the_studys_cells(tmp_path):
         "noise = [[0, 0], [2, 2], [10, 10], [20, 20]]\nseeds = 2\nrtol = 1e-10\n"
         "setpoint = { depth = 5.0 }\n"
     )
-    from sampledyn.experiments import CLOSED_LOOP_STUDY
+    from sampledyn.experiments._closed_loop import CLOSED_LOOP_STUDY
 
     (ours,) = map(plan_study, CLOSED_LOOP_STUDY.configs(study))
     theirs = plan_study(load_config(f))
@@ -203,7 +202,7 @@ def test_multistep_study_shares_one_simulation_per_h(monkeypatch):
 
     monkeypatch.setattr(compute, "simulate", counted)
     study = replace(MultistepStudy(), T=10.0, after=2.0, seeds=2, K=3, methods=("E", "AB2"))
-    rows = sd.experiments.run_multistep_study(study)
+    rows = run_multistep_study(study)
     assert sorted(calls) == [0.1, 0.5]
     assert len(rows) == 2 * 2 * (1 + 3 * 2) * 4
 
@@ -211,7 +210,7 @@ def test_multistep_study_shares_one_simulation_per_h(monkeypatch):
 def test_closed_loop_table_says_reference_and_divergence_in_words():
     """ZOH, the reference, has no one-step model error ("-", not "diverged"); a design
     with runs that left the envelope shows how many ("div k/n") instead of residuals."""
-    from sampledyn.report import closed_loop_table
+    from sampledyn.report._closed_loop import closed_loop_table
 
     base = dict(vehicle="rexrov", h=0.5, eta_pct=2.0, v_pct=2.0, rho_design=0.8,
                 rho_true=0.8, depth_p95=0.02, depth_max=0.03, heading_p95=0.01,

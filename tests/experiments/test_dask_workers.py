@@ -7,7 +7,8 @@ import os
 
 import pytest
 
-from sampledyn.experiments.sweep import DASK_WORKER_ENVIRON, check_dask_workers, local_cluster
+from sampledyn.experiments.sweep import local_cluster
+from sampledyn.experiments.sweep._backends import DASK_WORKER_ENVIRON, check_dask_workers
 
 pytestmark = pytest.mark.slow  # a dask cluster of worker processes
 

@@ -29,8 +29,10 @@ from _sweep_helpers import kill_when_stored
 
 import sampledyn as sd
 from sampledyn.cli import main
-from sampledyn.experiments import FIG7_STUDY_FILE, ROVStudy, run_study
-from sampledyn.experiments.sweep import load_config, plan_study
+from sampledyn.experiments import ROVStudy, run_study
+from sampledyn.experiments._rov import FIG7_STUDY_FILE
+from sampledyn.experiments.sweep import load_config
+from sampledyn.experiments.sweep._plan import plan_study
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = Path(__file__).parent / "data"
@@ -199,7 +201,7 @@ def test_closed_loop_rules_predict_with_the_plant_or_the_loop():
 
 
 def test_norms_masks_and_units():
-    from sampledyn.experiments.sweep import parse_norm
+    from sampledyn.experiments.sweep._norms import parse_norm
 
     assert parse_norm("rms").text == "rms"
     spec = parse_norm("noise:max [rad] @ pitch_deg(35, 45)")
@@ -281,7 +283,7 @@ def test_cli_advise_takes_the_input(tmp_path, capsys):
     args += ["--methods", "E,AB2", "--out", str(tmp_path), "--no-validate"]
     assert main([*args, "--input", '{ name = "gentle", scale = 0.3 }']) == 0
     assert "rexrov: h = 0.1 s" in capsys.readouterr().out
-    from sampledyn.cli import EXIT_BAD_VALUE
+    from sampledyn.cli._status import EXIT_BAD_VALUE
 
     with pytest.raises(SystemExit) as exc:
         main([*args, "--input", "chirp"])

@@ -18,18 +18,14 @@ from _faults import CLI, Unavailable, remount_readonly, tmpfs
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import EXIT_BAD_VALUE, EXIT_DISK, EXIT_FILE, main
-from sampledyn.experiments.sweep import (
-    APPLICATION_ID,
-    DEFAULT_MAX_CELLS,
-    NotAStoreError,
-    ResultStore,
-    SweepConfigError,
-    check_grid_size,
-    load_config,
-    plan_study,
-    run_sweep,
-)
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_DISK, EXIT_FILE
+from sampledyn.exceptions import NotAStoreError, SweepConfigError
+from sampledyn.experiments.sweep import load_config, run_sweep
+from sampledyn.experiments.sweep._config import DEFAULT_MAX_CELLS
+from sampledyn.experiments.sweep._plan import plan_study
+from sampledyn.experiments.sweep._run import check_grid_size
+from sampledyn.experiments.sweep._store import APPLICATION_ID, ResultStore
 
 
 def _snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:

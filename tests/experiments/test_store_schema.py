@@ -13,8 +13,11 @@ from pathlib import Path
 import pytest
 from _sweep_helpers import write_sweep
 
-from sampledyn.cli import EXIT_BAD_VALUE, main
-from sampledyn.experiments.sweep import NotAStoreError, ResultStore, load_config, run_sweep
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE
+from sampledyn.exceptions import NotAStoreError
+from sampledyn.experiments.sweep import load_config, run_sweep
+from sampledyn.experiments.sweep._store import ResultStore
 
 SMALL = {"T": 2.0, "after": 0.5, "h": "[0.02]", "methods": '["AB1", "AB2"]', "eta": "[0]",
          "v": "[0]", "seeds": 1}  # fmt: skip

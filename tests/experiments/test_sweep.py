@@ -12,9 +12,12 @@ from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
 import sampledyn._version
-from sampledyn.cli import EXIT_FILE, main
-from sampledyn.experiments.sweep import SweepConfigError, load_config, plan_study, run_sweep
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_FILE
+from sampledyn.exceptions import SweepConfigError
+from sampledyn.experiments.sweep import load_config, run_sweep
 from sampledyn.experiments.sweep._compute import compute_chunk, simulate_trajectory
+from sampledyn.experiments.sweep._plan import plan_study
 
 
 def test_grid_counts_cells_and_runs_noise_free_pair_once(tmp_path):
@@ -137,7 +140,7 @@ def test_failed_cells_are_stored_with_their_error_and_retried_on_request(tmp_pat
 
 def test_failed_exact_samples_fail_their_cells_only(tmp_path, monkeypatch):
     import sampledyn.experiments.sweep._compute as compute
-    from sampledyn.simulate import IntegrationError
+    from sampledyn.exceptions import IntegrationError
 
     real = compute.simulate
 

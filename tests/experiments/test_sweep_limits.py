@@ -9,8 +9,10 @@ import time
 import pytest
 from _sweep_helpers import write_sweep
 
-from sampledyn.cli import EXIT_BAD_VALUE, EXIT_UNAVAILABLE, EXIT_USAGE, main
-from sampledyn.experiments.sweep import SweepConfigError, load_config
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_UNAVAILABLE, EXIT_USAGE
+from sampledyn.exceptions import SweepConfigError
+from sampledyn.experiments.sweep import load_config
 
 SMALL = {"T": 2.0, "after": 0.5, "h": "[0.02]", "methods": '["AB1", "AB2"]', "eta": "[0]",
          "v": "[0]", "seeds": 1}  # fmt: skip
@@ -72,7 +74,7 @@ def test_the_memory_limit_option_raises_and_lowers_the_limit(tmp_path, capsys):
 @pytest.mark.parametrize(
     "args, said",
     [
-        (["reproduce", "fig2", "--h", "1e-9"], "`h` = 1e-09 s with `T` = 200 s"),
+        (["reproduce", "fig2", "--h", "1e-9"], "`h` = 1e-09 s with `T` (--T) = 200 s"),
         (["reproduce", "fig2", "--T", "1e12"], "1e+14 samples per trajectory"),
         (["reproduce", "fig7", "--h", "1e-7"], "above the limit of 4 GiB"),
         (["advise", "--h", "1e-9"], "T / h = 60 s / 1e-09 s = 6e+10 samples"),

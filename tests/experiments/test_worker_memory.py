@@ -15,7 +15,7 @@ def test_workers_keep_freed_memory():
     code = """
         import json, resource, sys
         import numpy as np
-        from sampledyn.experiments.sweep import retain_freed_memory
+        from sampledyn.experiments.sweep._backends import retain_freed_memory
         ok = retain_freed_memory() if sys.argv[-1] == "retain" else None
 
         def faults():

@@ -22,7 +22,7 @@ from _faults import (
     write_grid,
 )
 
-from sampledyn.cli import EXIT_INTERRUPTED, EXIT_TERMINATED
+from sampledyn.cli._status import EXIT_INTERRUPTED, EXIT_TERMINATED
 
 pytestmark = [
     pytest.mark.slow,  # real processes, signals and kills

@@ -18,8 +18,10 @@ from _sweep_helpers import write_sweep
 
 import sampledyn as sd
 from sampledyn import _files
-from sampledyn.cli import EXIT_BAD_VALUE, EXIT_FILE, main
-from sampledyn.logs import LogFormatError, evaluate_log, log_from_frame, read_log
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_FILE
+from sampledyn.exceptions import FileContentError, LogFormatError
+from sampledyn.logs import evaluate_log, log_from_frame, read_log
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_LOG = ROOT / "examples" / "rov_log.csv"
@@ -139,11 +141,11 @@ def test_deep_nesting_is_exit_3_naming_the_file(tmp_path, capsys, kind):
 
 def test_nesting_below_the_parsers_limit_is_still_bounded():
     text = "a = " + "[" * 100 + "]" * 100  # parses, but deeper than any sampledyn file
-    with pytest.raises(_files.FileContentError, match="deeper than 64 levels"):
+    with pytest.raises(FileContentError, match="deeper than 64 levels"):
         _files.parse_toml(text, "x.toml")
-    with pytest.raises(_files.FileContentError, match="nested too deep"):
+    with pytest.raises(FileContentError, match="nested too deep"):
         _files.parse_json("[" * 200_000 + "]" * 200_000, "message")
-    with pytest.raises(_files.FileContentError, match="integer too long to read"):
+    with pytest.raises(FileContentError, match="integer too long to read"):
         _files.parse_toml("a = 1" + "0" * 5000, "x.toml")
 
 
@@ -280,7 +282,7 @@ def test_a_trajectory_whose_h_is_not_its_spacing_is_refused():
 def test_tustins_discrete_step_raises_where_predict_does():
     model = sd.models.AUVLike()
     dm = sd.discretize(model, "T", 1.0)
-    with pytest.raises(sd.methods.ConvergenceError, match=r"T: the step from t = 0 s .* not "
+    with pytest.raises(sd.exceptions.ConvergenceError, match=r"T: the step from t = 0 s .* not "
                                                           r"finite"):  # fmt: skip
         dm.step(np.array([1.0, 100.0]), np.array([0.0]))
     z = dm.step(np.array([1.0, 0.1]), np.array([0.0]))  # a step Newton solves: numbers
@@ -289,7 +291,7 @@ def test_tustins_discrete_step_raises_where_predict_does():
 
 @pytest.mark.parametrize("pct", [1e308, 1001.0])
 def test_noise_levels_beyond_the_motion_are_refused(pct):
-    from sampledyn.noise import noise_amplitudes
+    from sampledyn._noise import noise_amplitudes
 
     with pytest.raises(ValueError, match=r"above 1000 %"):
         noise_amplitudes(("m", "m/s"), pct, 0.0)

@@ -14,7 +14,7 @@ def model():
 
 @pytest.mark.parametrize("s", [0, -1])
 def test_order_below_one(s):
-    with pytest.raises(ValueError, match="order `s` must be >= 1"):
+    with pytest.raises(ValueError, match="order `s` must be an int >= 1"):
         sd.AdamsBashforth(s)
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from sampledyn.exceptions import UnsafeCacheError
 from sampledyn.models import _kernel_cache as kc
 
 REPO = Path(__file__).resolve().parents[2]
@@ -54,7 +55,7 @@ def test_a_folder_others_may_write_is_refused_naming_the_reason_and_the_variable
     root = tmp_path / "sampledyn-victim"
     (root / "kernels").mkdir(parents=True)
     os.chmod(root / "kernels", mode)
-    with pytest.raises(kc.UnsafeCacheError) as info:
+    with pytest.raises(UnsafeCacheError) as info:
         kc.kernel_dir([root], None)
     text = str(info.value)
     assert f"may be written by {who} (mode {mode:04o})" in text
@@ -71,7 +72,7 @@ def test_an_open_fallback_is_refused_not_skipped(tmp_path):
     planted = tmp_path / "sampledyn-victim"
     planted.mkdir()
     os.chmod(planted, 0o777)
-    with pytest.raises(kc.UnsafeCacheError, match="may be written by others"):
+    with pytest.raises(UnsafeCacheError, match="may be written by others"):
         kc.kernel_dir([blocked / "home-cache", planted], None)
     assert list(planted.iterdir()) == [] or not any(planted.rglob("*.py"))
 
@@ -81,7 +82,7 @@ def test_a_folder_of_another_user_is_refused(tmp_path):
     root = tmp_path / "sampledyn-victim"
     (root / "kernels").mkdir(parents=True, mode=0o700)
     os.chown(root, OTHER_UID, -1)
-    with pytest.raises(kc.UnsafeCacheError, match=f"owned by uid {OTHER_UID}"):
+    with pytest.raises(UnsafeCacheError, match=f"owned by uid {OTHER_UID}"):
         kc.kernel_dir([root], None)
 
 
@@ -92,7 +93,7 @@ def test_a_symlink_to_another_users_folder_is_refused_one_to_ones_own_accepted(t
     os.chown(theirs, OTHER_UID, -1)
     link = tmp_path / "cache"
     link.symlink_to(theirs)
-    with pytest.raises(kc.UnsafeCacheError, match="its target .* owned by uid 65534"):
+    with pytest.raises(UnsafeCacheError, match="its target .* owned by uid 65534"):
         kc.kernel_dir([link], None)
     mine = tmp_path / "mine"
     mine.mkdir(mode=0o700)

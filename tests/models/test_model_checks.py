@@ -82,7 +82,7 @@ def test_closed_loop_jacobian_is_the_chain_rule_through_the_plant_bit_for_bit():
     # the vehicle's input Jacobian kernel is its input_jacobian
     jac_u, p = veh.input_jacobian_kernel()
     out = np.empty((12, 8))
-    from sampledyn.models import readonly
+    from sampledyn.models._base import readonly
 
     jac_u(0.0, readonly(x[3]), readonly(u[3]), readonly(p), out)
     assert np.array_equal(out, veh.input_jacobian(0.0, x[3], u[3]))

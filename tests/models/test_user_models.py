@@ -421,15 +421,15 @@ def test_function_model_both_forms_agree_and_run():
 def test_function_model_without_jacobian_says_how_to_supply_one():
     model = FunctionModel(_spring_returning, 2, 1, params={"k": 4.0, "c": 0.3})
     x, u = np.ones((3, 2)), np.ones((3, 1))
-    with pytest.raises(sd.models.JacobianUnavailableError) as info:
+    with pytest.raises(sd.exceptions.JacobianUnavailableError) as info:
         model.jacobian(0.0, x, u)
     message = str(info.value)
     assert "jac=" in message and "SymbolicModel" in message and "finite differences" in message
     signal = sd.signals.Multilevel(low=-1.0, high=1.0, hold=0.5, seed=0)
     traj = sd.simulate(model, signal, T=2.0, h=0.05, x0=np.array([1.0, 0.0]))
-    with pytest.raises(sd.models.JacobianUnavailableError, match="jac="):
+    with pytest.raises(sd.exceptions.JacobianUnavailableError, match="jac="):
         sd.predict("T", model, traj)
-    with pytest.raises(sd.models.JacobianUnavailableError, match="input_jac="):
+    with pytest.raises(sd.exceptions.JacobianUnavailableError, match="input_jac="):
         model.input_jacobian(0.0, x, u)
 
 
@@ -521,7 +521,7 @@ def test_closed_loop_around_a_function_model_needs_its_input_jacobian():
     np.testing.assert_allclose(with_ju.jacobian(0.0, np.ones(2), [0.0]), [[0, 1], [-5, -1.5]])
     without = ClosedLoop(FunctionModel(f, 2, 1, jac=jx, params={"k": 2.0}), law)
     np.testing.assert_allclose(without.f(0.0, np.ones(2), np.zeros(1)), [1.0, -6.5])
-    with pytest.raises(sd.models.JacobianUnavailableError, match="input Jacobian"):
+    with pytest.raises(sd.exceptions.JacobianUnavailableError, match="input Jacobian"):
         without.jacobian(0.0, np.ones(2), [0.0])
 
 

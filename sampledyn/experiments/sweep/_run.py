@@ -28,8 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ... import _checks as checks
 from ..._files import parse_json
-from ..._limits import worker_count
+from ...exceptions import SweepConfigError
 from ._backends import (
     check_dask_workers,
     check_scheduler,
@@ -42,7 +43,7 @@ from ._backends import (
     stop_pool,
 )
 from ._compute import ChunkResult
-from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
+from ._config import DEFAULT_MAX_CELLS, SweepConfig, load_config
 from ._plan import Cell, Chunk, PlannedGroup, Study, plan_study
 from ._store import CELL_COLUMNS, Claim, ResultStore, inspect_store
 
@@ -506,12 +507,11 @@ def _backend(
     """The backend's name and worker count, the run's arguments checked."""
     if workers is not None and scheduler is not None:
         raise ValueError("give `workers` or `scheduler`, not both.")
-    if workers is not None and (isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"`workers` must be >= 1, got {workers}.")
-    if groups_per_chunk is not None and groups_per_chunk < 1:
-        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
-    if not lease > 0:
-        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
+    if workers is not None:
+        checks.count(workers, "workers")
+    if groups_per_chunk is not None:
+        checks.count(groups_per_chunk, "groups_per_chunk")
+    checks.positive(lease, "lease", unit="s")
     if scheduler is not None:
         check_scheduler(scheduler)  # malformed: refused; tcp:// off this machine: a warning
         return f"dask:{scheduler}", 1
@@ -521,11 +521,11 @@ def _backend(
 
 
 def _capped_workers(workers: int | None, study: Study, groups_per_chunk: int) -> int | None:
-    """``workers`` capped at the cores (:func:`sampledyn._limits.worker_count`) and at
+    """``workers`` capped at the cores (:func:`sampledyn._checks.worker_count`) and at
     the tasks of the grid, with a warning that says so."""
     if workers is None:
         return None
-    count, note = worker_count(workers, "workers")
+    count, note = checks.worker_count(workers, "workers")
     tasks = max(1, len(study.trajectories) * math.ceil(study.groups_per_trajectory
                                                         / groups_per_chunk))  # fmt: skip
     if tasks < count:

@@ -80,12 +80,12 @@ from pathlib import Path
 from typing import Any
 
 from ..._files import parse_json, regular_file
+from ...exceptions import NotAStoreError
 
 __all__ = [
     "APPLICATION_ID",
     "CELL_COLUMNS",
     "Claim",
-    "NotAStoreError",
     "ResultStore",
     "inspect_store",
     "load_results",
@@ -186,10 +186,6 @@ _CLAIM_COLUMNS = (
 )
 _TABLES = ("cells", "trajectories", "runs")
 _BATCH = 500  # keys per SQL statement (SQLite's variable limit is 32766 since 3.32)
-
-
-class NotAStoreError(ValueError):
-    """A file that is not a sampledyn results store; it was left untouched."""
 
 
 @dataclass(frozen=True)
@@ -963,6 +959,7 @@ class ResultStore:
         return True
 
     def close(self) -> None:
+        """Close the store's connection (a ``with`` block does it on exit)."""
         self._conn.close()
 
     def __enter__(self) -> ResultStore:
