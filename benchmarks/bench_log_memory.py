@@ -61,31 +61,18 @@ def write_log(path: Path, rows: int, block: int = 500_000) -> None:
 
 
 CHILD = r"""
-import json, resource, sys, tracemalloc, warnings
+import json, sys, tracemalloc, warnings
 import numpy as np
 import pandas as pd
 import sampledyn as sd
 from sampledyn.logs import read_log, log_from_frame
+from _peak import PeakMemory
 
 case, path, small = sys.argv[1], sys.argv[2], sys.argv[3]
 vehicle = sd.models.load_vehicle("bluerov2_heavy")
 read_log(small, vehicle)  # import and warm everything on a small log
 
-def rss(field):
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith(field):
-                return int(line.split()[1]) * 1024
-    raise KeyError(field)
-
-try:
-    with open("/proc/self/clear_refs", "w") as fh:
-        fh.write("5")
-    reset = True
-except OSError:
-    reset = False
-before = rss("VmRSS:")
-before_max = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+peak = PeakMemory()
 tracemalloc.start()
 if case == "chunked":
     data = read_log(path, vehicle)
@@ -95,13 +82,11 @@ else:
     del frame
 traced = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()
-peak = rss("VmHWM:") if reset else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 tr = data.traj
 kept = tr.t.nbytes + tr.x.nbytes + tr.u.nbytes + data.valid.nbytes + data.rows.nbytes
 print(json.dumps({
-    "rows": int(tr.n_samples), "kept": kept, "rss_growth": peak - (before if reset else
-    max(before, before_max)), "traced_peak": traced, "rss_method": "VmHWM" if reset else
-    "ru_maxrss",
+    "rows": int(tr.n_samples), "kept": kept, "rss_growth": peak.growth(),
+    "traced_peak": traced, "rss_method": peak.method,
 }))
 """
 
@@ -109,8 +94,9 @@ print(json.dumps({
 def run(case: str, path: Path, small: Path) -> dict:
     t0 = time.perf_counter()
     out = subprocess.run(
-        [sys.executable, "-c", CHILD, case, str(path), str(small)],
+        [sys.executable, "-c", CHILD, case, str(path.resolve()), str(small.resolve())],
         check=True,
+        cwd=Path(__file__).parent,
         capture_output=True,
         text=True,
     )
