@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import ab_coefficients, warn_if_unstable
+from ..methods import ab_coefficients, multistep_amplification, warn_if_unstable
 from ._estimate import EstimationResult, estimate_and_predict
 
 __all__ = ["EstimatedAdamsBashforth", "estimated_euler"]
@@ -100,6 +100,11 @@ class EstimatedAdamsBashforth:
     @property
     def step_rule(self) -> str:
         return "uniform grid only"
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """The AB_s recursion's largest root modulus at z = h lambda (it predicts with
+        AB_s; lambda are then eigenvalues of the estimated model's Jacobian)."""
+        return multistep_amplification(ab_coefficients(self.order), z)
 
     # -- estimation --------------------------------------------------------------------
 

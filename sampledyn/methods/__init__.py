@@ -6,6 +6,7 @@ Every rule answers the questions of small runtime-checkable protocols itself:
 :class:`Method` (name, family, order, history, label), :class:`Predictor`
 (prediction on uniform and non-uniform time), :class:`NoiseAnalysis` (noise gain,
 prediction Jacobians, error constant), :class:`Estimator` (Ee, ABe_s) and
+:class:`Stability` (its stability function or region, ``amplification(z)``) and
 :class:`DiscreteTimeSystem` (its step as data, :class:`StepProgram`, from which the
 compiled step, the vector blocks and the linearisation are derived); other layers
 ask it with ``isinstance`` instead of inspecting its class or parsing its name. The
@@ -29,6 +30,7 @@ from ._base import FixedRule as FixedRule
 from ._base import Method as Method
 from ._base import NoiseAnalysis as NoiseAnalysis
 from ._base import Predictor as Predictor
+from ._base import Stability as Stability
 from ._base import check_gain_args as check_gain_args
 from ._base import check_ratio as check_ratio
 from ._base import fixed_step as fixed_step
@@ -41,6 +43,8 @@ from ._base import stencil_steps as stencil_steps
 from ._base import time_steps as time_steps
 from ._base import uniform_grid as uniform_grid
 from ._base import uniform_step as uniform_step
+from ._stability import largest_stable_steps as largest_stable_steps
+from ._stability import multistep_amplification as multistep_amplification
 from ._program import Combination as Combination
 from ._program import ConvergenceError as ConvergenceError
 from ._program import Stage as Stage
@@ -92,6 +96,7 @@ __all__ = [
     "Predictor",
     "RungeKutta",
     "Stage",
+    "Stability",
     "StepProgram",
     "Tustin",
     "ab_coefficients",
@@ -112,6 +117,8 @@ __all__ = [
     "grid_steps",
     "lagged_jacobians",
     "lagrange_integrals",
+    "largest_stable_steps",
+    "multistep_amplification",
     "nan_rows",
     "register_family",
     "sample_f",

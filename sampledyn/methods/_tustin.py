@@ -25,6 +25,7 @@ from numba import njit
 from .._trajectory import Trajectory
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
 from ._program import Combination, ConvergenceError, Stage, StepProgram
+from ._stability import rational_amplification
 
 __all__ = ["NEWTON_BLOCK", "ConvergenceError", "Tustin"]
 
@@ -172,6 +173,11 @@ class Tustin(FixedRule):
             if active.size == 0:
                 return None
         return active
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """``|R(z)| = |(1 + z/2) / (1 - z/2)|`` at each z = h lambda: <= 1 on the whole
+        left half-plane (A-stable), so every step is stable on a mode with Re lambda <= 0."""
+        return rational_amplification((1.0, 0.5), (1.0, -0.5), z)
 
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """The implicit solution moves by ``d = delta + (h/2) L (delta + d)``, so

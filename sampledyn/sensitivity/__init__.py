@@ -17,6 +17,9 @@ plots):
   the largest h under a tolerance (:func:`largest_h`);
 * sensitivity to the pitch (J singular at 90 deg, :func:`pitch_sensitivity`) and a
   vehicle of scaled inertia (:func:`scaled_inertia`);
+* stability before prediction: the largest step at which each rule is stable along
+  sampled data, from the Jacobian's eigenvalues and the rule's own stability
+  function or region (:func:`stability_limits`);
 * the reference inputs of the analysis (:func:`gentle_input`, :func:`pitch_input`).
 
 The studies that simulate and measure live in the experiment layer, on its engine:
@@ -75,6 +78,9 @@ from ._jacobians import spectral_norm as spectral_norm
 from ._path import PathPrediction as PathPrediction
 from ._path import path_prediction as path_prediction
 from ._rates import fastest_time_constant as fastest_time_constant
+from ._stability import StabilityLimit as StabilityLimit
+from ._stability import jacobian_eigenvalues as jacobian_eigenvalues
+from ._stability import stability_limits as stability_limits
 from ._sweeps import PitchSensitivity as PitchSensitivity
 from ._sweeps import pitch_sensitivity as pitch_sensitivity
 from ._sweeps import scaled_inertia as scaled_inertia
