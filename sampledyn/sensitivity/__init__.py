@@ -17,6 +17,8 @@ plots):
   the largest h under a tolerance (:func:`largest_h`);
 * sensitivity to the pitch (J singular at 90 deg, :func:`pitch_sensitivity`) and a
   vehicle of scaled inertia (:func:`scaled_inertia`);
+* the noise floor: the one-step error measurement noise alone gives through a rule
+  (:func:`noise_floor_squares`);
 * stability before prediction: the largest step at which each rule is stable along
   sampled data, from the Jacobian's eigenvalues and the rule's own stability
   function or region (:func:`stability_limits`);
@@ -61,6 +63,8 @@ from ._curves import usable_periods as usable_periods
 from ._domain import Domain as Domain
 from ._domain import check_vehicle as check_vehicle
 from ._domain import pitch_guard as pitch_guard
+from ._floor import FLOOR_FACTOR as FLOOR_FACTOR
+from ._floor import noise_floor_squares as noise_floor_squares
 from ._gains import error_constant as error_constant
 from ._gains import first_order_gain as first_order_gain
 from ._gains import noise_gain as noise_gain

@@ -42,6 +42,7 @@ LAYERS: dict[str, int] = {
     "sampledyn.noise": 3,
     "sampledyn.errors": 3,
     "sampledyn.predict": 3,
+    "sampledyn._baselines": 3,
     "sampledyn.sensitivity": 4,
     "sampledyn.estimate": 4,
     "sampledyn.discretize": 5,
