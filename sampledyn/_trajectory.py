@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -136,6 +137,13 @@ class Trajectory:
         Absolute time of the first sample (t = 0) as logged, e.g.
         ``"2024-05-02T10:00:00.000000000+00:00"`` or ``"TimeUS = 51234000 us"``;
         None for simulated data.
+    signal : Signal or None
+        The input in continuous time that made the samples (set by
+        :func:`sampledyn.simulate`; kept by noise, subsampling and slicing in time);
+        the rules that evaluate f between samples (RK_s, T) take their stage inputs
+        from it when no ``signal`` is given. None for a log, whose input between
+        samples is unknown (the rules then hold the sampled input), and after
+        :meth:`replace` changes ``u`` without giving a ``signal``.
     """
 
     t: np.ndarray
@@ -149,6 +157,7 @@ class Trajectory:
     clean: Trajectory | None = field(default=None, repr=False)
     certificate: Certificate | None = field(default=None, repr=False)
     origin: str | None = field(default=None, repr=False)
+    signal: Any = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t = _frozen(self.t)
@@ -215,7 +224,10 @@ class Trajectory:
         return bool(steps.size == 0 or np.abs(steps - self.h).max() <= rtol * self.h)
 
     def replace(self, **changes: object) -> Trajectory:
-        """A copy with some fields changed (``dataclasses.replace``)."""
+        """A copy with some fields changed (``dataclasses.replace``). A new ``u``
+        without a ``signal`` drops the signal (it made the old inputs, not these)."""
+        if "u" in changes and "signal" not in changes:
+            changes["signal"] = None
         return replace(self, **changes)  # type: ignore[arg-type]
 
     def subsample(self, k: int) -> Trajectory:

@@ -504,7 +504,8 @@ def simulate(
     Returns
     -------
     Trajectory with ``t`` shape (N,), ``x`` shape (N, nx), ``u`` shape (N, nu);
-    ``u`` is the input at the sample times.
+    ``u`` is the input at the sample times, ``signal`` the input itself (so that the
+    rules that need the input between samples find it, :attr:`Trajectory.signal`).
 
     Raises
     ------
@@ -587,6 +588,7 @@ def simulate(
         input_names=model.input_names,
         input_units=model.input_units,
         certificate=certificate,
+        signal=signal,
     )
 
 

@@ -437,9 +437,12 @@ def stage_inputs(
     uniform one (then ``signal.intersample`` gets the one offset ``c data.h``, as the
     Signal protocol has it; a non-uniform grid needs a signal that takes an array of
     offsets, as :class:`sampledyn.signals.Signal` does). From ``signal`` (its held
-    part taken at ``t_n``) when given, else the sampled input held over the interval
-    (zero-order hold).
+    part taken at ``t_n``) when given, else from the signal the data remember
+    (``data.signal``, set by :func:`sampledyn.simulate`), else the sampled input held
+    over the interval (zero-order hold).
     """
+    if signal is None:
+        signal = getattr(data, "signal", None)
     if signal is None or c == 0.0:
         return data.u[:-1]
     tau = c * data.h if steps is None else c * steps
