@@ -208,6 +208,7 @@ def estimate_noise(
     *,
     rows: Any = None,
     states: Any = None,
+    segments: Any = None,
 ) -> NoiseEstimate:
     """Measurement-noise level of every state, from high-order differences of the data.
 
@@ -228,6 +229,9 @@ def estimate_noise(
         missing sample, so each segment counts on its own.
     states : sequence of int, optional
         The states to estimate (default all); the others get NaN.
+    segments : sequence of (start, stop), optional
+        Row ranges evaluated on their own (a log split at dropped records): no window
+        spans two of them.
 
     Windows over which the sampled input changes are left out when the input is
     piecewise constant (it changes in fewer than half of the windows): the rates'
@@ -265,9 +269,14 @@ def estimate_noise(
         r = np.asarray(rows)
         idx = np.flatnonzero(r) if r.dtype == bool else np.sort(r.astype(int))
     cols = np.arange(nx) if states is None else np.asarray(list(states), dtype=int)
+    seg = np.zeros(n, dtype=int)
+    for i, (a, b) in enumerate(segments or ()):
+        seg[a:b] = i
 
     def level(k: int) -> tuple[np.ndarray, int, int]:
-        win, skipped = _smooth_windows(traj, _windows(idx, k + 1))
+        win = _windows(idx, k + 1)
+        win = win[seg[win[:, 0]] == seg[win[:, -1]]]
+        win, skipped = _smooth_windows(traj, win)
         out = np.full(nx, np.nan)
         if win.shape[0] < 2:
             return out, int(win.shape[0]), skipped

@@ -12,21 +12,22 @@ from ._trajectory import NumericalError, Trajectory
 from .methods import get_predictor
 from .models import SingularPitchError
 
-__all__ = ["HELD_INPUT", "predict", "warn_held_input"]
+__all__ = ["HELD_INPUT_TEXT", "predict", "warn_held_input"]
 
-#: What a rule that evaluates f between samples does without the input there.
-HELD_INPUT = (
-    "{names}: the input between samples is not known (no `signal`, and the data carry "
-    "none: a log or data built by hand), so the sampled input is held over each "
-    "interval (zero-order hold) for the stages inside it; give signal=... if the input "
-    "moved between samples."
+#: What a rule that evaluates f between samples does without the input there (the
+#: warning of :func:`warn_held_input`, after the rule's name).
+HELD_INPUT_TEXT = (
+    "the input between samples is not known (no `signal`, and the data carry none: a "
+    "log or data built by hand), so the sampled input is held over each interval "
+    "(zero-order hold) for the stages inside it; give signal=... if the input moved "
+    "between samples."
 )
 
 
 def warn_held_input(names: str, stacklevel: int = 3) -> None:
     """Say that ``names`` (rules that evaluate f between samples) hold the sampled
     input (a UserWarning, shown once per place by Python's default filter)."""
-    warnings.warn(HELD_INPUT.format(names=names), UserWarning, stacklevel=stacklevel)
+    warnings.warn(f"{names}: {HELD_INPUT_TEXT}", UserWarning, stacklevel=stacklevel)
 
 
 def predict(

@@ -45,7 +45,11 @@ class EstimatedAdamsBashforth:
     params : tuple of str, optional
         Parameters to estimate (default: those ``model.regressors`` is linear in).
     free_weights : bool
-        Estimate the s AB weights too (see :func:`sampledyn.estimate`).
+        Estimate the s AB weights too (see :func:`sampledyn.estimate`; a uniform grid
+        only).
+    skip_input_jumps : bool or None
+        Leave out the one-step errors whose history straddles an input jump (None: when
+        the input is piecewise constant; see :func:`sampledyn.estimate`).
     """
 
     order: int
@@ -54,6 +58,7 @@ class EstimatedAdamsBashforth:
     after_fraction: float | None = None
     params: tuple[str, ...] | None = None
     free_weights: bool = False
+    skip_input_jumps: bool | None = None
 
     def __post_init__(self) -> None:
         ab_coefficients(self.order)  # validates the order
@@ -94,12 +99,15 @@ class EstimatedAdamsBashforth:
 
     @property
     def variable_step(self) -> bool:
-        """False: the estimation fits the fixed AB_s weights on a uniform grid."""
-        return False
+        """True unless the weights are estimated: the regression and the prediction use
+        the weights of the actual nodes on a non-uniform grid, as AB_s does."""
+        return not self.free_weights
 
     @property
     def step_rule(self) -> str:
-        return "uniform grid only"
+        if self.free_weights:
+            return "uniform grid only (estimated weights)"
+        return "estimated on, and predicting with, the Adams weights of the actual nodes"
 
     def amplification(self, z: Any) -> np.ndarray:
         """The AB_s recursion's largest root modulus at z = h lambda (it predicts with
@@ -142,6 +150,7 @@ class EstimatedAdamsBashforth:
             after=self._after(data) if after is None else after,
             params=self.params,
             free_weights=self.free_weights,
+            skip_input_jumps=self.skip_input_jumps,
         )
 
     def estimate(self, model: Any, data: Trajectory, signal: Any = None) -> EstimationResult:

@@ -23,14 +23,14 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .._trajectory import Trajectory
-from ..models import ClosedLoop, Vehicle
+from .._trajectory import NumericalError, Trajectory
+from ..models import ClosedLoop, SingularPitchError, Vehicle
 from ..noise import noise_amplitudes
 from ..sensitivity import (
     RANK_BY,
@@ -95,6 +95,13 @@ class AdviceRow:
         (the prediction is a first-order worst case, not an exact value).
     measured_rank : int or None
         Rank by the measured maxima.
+    h_stable : float or None
+        Largest h (s) at which the rule is stable along the reference run (the
+        eigenvalues of df/dx at its samples, :func:`sampledyn.sensitivity.
+        stability_limits`); None without a Jacobian.
+    failed : str or None
+        Why the rule's prediction failed at h itself (its numbers are then NaN and it
+        ranks last); None if it did not.
     """
 
     method: str
@@ -115,6 +122,8 @@ class AdviceRow:
     rank: int
     measured_rank: int | None
     near_best: bool = False
+    h_stable: float | None = None
+    failed: str | None = None
 
 
 @dataclass(frozen=True)
@@ -142,7 +151,10 @@ class Advice:
         Monte Carlo repetitions (0 without validation).
     notes : tuple of str
         What the table leaves out and why (e.g. no bound for a model that is not a
-        6-DoF vehicle).
+        6-DoF vehicle), and where a rule's curve ended because it failed.
+    noise_levels : ndarray, shape (nx,), or None
+        The per-state noise standard deviations advised on (then ``eta_pct`` and
+        ``v_pct`` are NaN); None for the levels of ``eta_pct``, ``v_pct``.
     """
 
     vehicle: str
@@ -158,6 +170,8 @@ class Advice:
     rank_agreement: float | None
     seeds: int
     notes: tuple[str, ...] = field(default=())
+    noise_levels: np.ndarray | None = None
+    state_names: tuple[str, ...] = ()
 
     @property
     def best(self) -> str:
@@ -194,9 +208,16 @@ class Advice:
         )
         if self.tolerance is not None:
             head += f" | {'h_max':>7s} {'h_max_g':>7s}"
+        head += f" | {'h_stab':>7s}"
+        if self.noise_levels is None:
+            noise = f"noise (eta, v) = ({self.eta_pct:g} %, {self.v_pct:g} %)"
+        else:
+            names = self.state_names or tuple(f"x{i}" for i in range(len(self.noise_levels)))
+            noise = "noise per state (std, uniform): " + ", ".join(
+                f"{n} {v:.2g}" for n, v in zip(names, self.noise_levels, strict=True) if v > 0
+            )
         lines = [
-            f"{self.vehicle}: h = {self.h:g} s, noise (eta, v) = ({self.eta_pct:g} %, "
-            f"{self.v_pct:g} %); ranked by predicted {self.rank_by} error",
+            f"{self.vehicle}: h = {self.h:g} s, {noise}; ranked by predicted {self.rank_by} error"
         ]
         if self.domain is not None:
             lines.append(f"domain: {self.domain.describe()}")
@@ -212,8 +233,17 @@ class Advice:
                 hm = "-" if r.h_max is None else f"{r.h_max:.3g}"
                 hg = "-" if r.h_max_guaranteed is None else f"{r.h_max_guaranteed:.3g}"
                 line += f" | {hm:>7s} {hg:>7s}"
+            hs = "-" if r.h_stable is None else f"{r.h_stable:.3g}"
+            unstable = r.h_stable is not None and self.h > r.h_stable
+            line += f" | {hs:>7s}{' !' if unstable else ''}"
+            if r.failed:
+                line += f"  failed at h: {r.failed}"
             lines.append(line)
         lines.append(f"* predicted within {TIE:.0%} of the best: as good in practice")
+        lines.append(
+            "h_stab: largest h (s) at which the rule is stable along the reference run "
+            "(|R(h lambda)| <= 1 for the eigenvalues of df/dx at its samples); ! h is beyond it"
+        )
         if self.rank_agreement is not None:
             lines.append(
                 f"measured over {self.seeds} noise seeds; Kendall tau (predicted vs measured "
@@ -224,7 +254,7 @@ class Advice:
                 f"h_max: largest h (s) whose predicted (h_max) / guaranteed (h_max_g) error "
                 f"stays <= tolerance (eta, v) = {self.tolerance}"
             )
-        lines.extend(f"n/a: {note}" for note in self.notes)
+        lines.extend((note if ": its curve" in note else f"n/a: {note}") for note in self.notes)
         return "\n".join(lines)
 
 
@@ -264,6 +294,7 @@ def _curves(
     domain: Domain | None,
     signal: Any,
     samples: int,
+    amp: np.ndarray | None = None,
 ) -> ErrorCurves:
     """Error curves of every rule, each predicting as the engine predicts it (a
     closed loop: rules that use samples only with the plant and the applied input)."""
@@ -286,7 +317,9 @@ def _curves(
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=r"pitch \|theta\| up to", category=UserWarning)
         parts = [
-            error_curves(gm, gms, data, ks, eta_pct, v_pct, domain, sig, samples=samples)
+            error_curves(
+                gm, gms, data, ks, eta_pct, v_pct, domain, sig, samples=samples, amplitudes=amp
+            )
             for gm, data, sig, gms in groups.values()
         ]
     if len(parts) == 1:
@@ -299,6 +332,7 @@ def _curves(
         eta_pct=float(eta_pct),
         v_pct=float(v_pct),
         methods=tuple(m.name for m in ms),
+        failed={n: f for p in parts for n, f in p.failed.items()},
         **merged,
     )
 
@@ -360,6 +394,113 @@ def _reference_run(
     return base, sorted({int(round(k)) for k in grid} | {m_ratio})
 
 
+def _levels(model: Any, eta_pct: float, v_pct: float, noise_levels: Any) -> np.ndarray | None:
+    """Uniform noise amplitudes per state from ``noise_levels`` (standard deviations,
+    or a NoiseEstimate): a = sqrt(3) sigma, the uniform noise of that std; None when
+    not given (the amplitudes of eta_pct, v_pct)."""
+    if noise_levels is None:
+        return None
+    sigma = getattr(noise_levels, "sigma", noise_levels)
+    sig = np.nan_to_num(np.asarray(sigma, dtype=float), nan=0.0)
+    if sig.shape != (model.nx,) or not np.isfinite(sig).all() or (sig < 0).any():
+        raise ValueError(
+            f"`noise_levels` must be {model.nx} standard deviations >= 0 (state units, one "
+            f"per state) or a NoiseEstimate, got shape {sig.shape}; e.g. the `noise` of "
+            "sampledyn.logs.evaluate_log or sampledyn.noise.estimate_noise(log)."
+        )
+    return np.sqrt(3.0) * sig
+
+
+def _measure_levels(
+    model: Any, ms: list[Any], base: Trajectory, signal: Any, h: float, amp: np.ndarray,
+    seeds: int, base_seed: int,
+) -> dict[str, tuple[float, float, float, float]]:  # fmt: skip
+    """The Monte Carlo of per-state noise levels, in this process: uniform noise of
+    amplitudes ``amp`` on the exact samples at h, ``seeds`` times; per rule the largest
+    and the rms block errors over all seeds (NaN for a rule that fails)."""
+    from ..errors import local_errors
+    from ..predict import predict
+    from ..sensitivity import block_error_norms, reference_at
+
+    clean = reference_at(base, h)
+    out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {m.name: [] for m in ms}
+    for k in range(seeds):
+        rng = np.random.default_rng(np.random.SeedSequence([base_seed, k]))
+        noisy = clean.replace(x=clean.x + rng.uniform(-1.0, 1.0, clean.x.shape) * amp)
+        for m in ms:
+            try:
+                err = local_errors(predict(m, model, noisy, signal), noisy)
+            except (NumericalError, SingularPitchError, FloatingPointError):
+                continue
+            out[m.name].append(block_error_norms(err, noisy.state_units))
+    found = {}
+    for name, blocks in out.items():
+        if len(blocks) < seeds:
+            found[name] = (math.nan,) * 4
+            continue
+        eta = np.concatenate([b[0] for b in blocks])
+        v = np.concatenate([b[1] for b in blocks])
+        found[name] = (
+            float(np.nanmax(eta)), float(np.nanmax(v)),
+            float(np.sqrt(np.nanmean(eta**2))), float(np.sqrt(np.nanmean(v**2))),
+        )  # fmt: skip
+    return found
+
+
+def _measured(
+    model: Any, ms: list[Any], base: Trajectory, signal: Any, h: float, noise: Any,
+    seeds: int, base_seed: int, workers: int | None,
+) -> dict[str, tuple[float, float, float, float]]:  # fmt: skip
+    """(max eta, max v, rms eta, rms v) per rule on noisy copies of the run."""
+    eta_pct, v_pct, amp, own_rules = noise
+    if amp is not None or own_rules:
+        # per-state levels, or rules with options of their own (the engine builds its
+        # rules from their names): the Monte Carlo in this process, with these rules
+        amp = noise_amplitudes(model.state_units, eta_pct, v_pct) if amp is None else amp
+        if isinstance(model, ClosedLoop):
+            raise ValueError(
+                "`noise_levels` or `newton` with `validate=True` are for open-loop models; "
+                "for a closed loop give eta_pct, v_pct and the default Newton options (the "
+                "engine's Monte Carlo), or validate=False."
+            )
+        return _measure_levels(model, ms, base, signal, h, amp, seeds, base_seed)
+    found = measure_noisy(
+        model, [m.name for m in ms], base, signal, h, [(eta_pct, v_pct)], seeds,
+        base_seed, ("max", "rms"), workers=workers,
+    )  # fmt: skip
+    measured = {}
+    for m in ms:
+        per = {n: found[(float(eta_pct), float(v_pct), m.name, n)] for n in ("max", "rms")}
+        worst, rms = pooled(per)
+        measured[m.name] = (float(worst[0]), float(worst[1]), float(rms[0]), float(rms[1]))
+    return measured
+
+
+def _stable_steps(model: Any, ms: list[Any], base: Trajectory, h: float) -> dict[str, float]:
+    """Each rule's largest stable step along the reference run (empty: no Jacobian)."""
+    from ..models import JacobianUnavailableError
+    from ..sensitivity import reference_at, stability_limits
+
+    try:
+        limits = stability_limits(model, ms, reference_at(base, h), h=h)
+    except JacobianUnavailableError:
+        return {}
+    return {lim.method: lim.h_stable for lim in limits}
+
+
+def _sort_key(key: float) -> tuple[bool, float]:
+    """Rank NaN (a rule that failed at h) last."""
+    return (not math.isfinite(key), key if math.isfinite(key) else 0.0)
+
+
+def _failure_notes(curves: ErrorCurves, h: float) -> list[str]:
+    notes = []
+    for name, (h_fail, why) in curves.failed.items():
+        where = "at h itself" if abs(h_fail - h) <= 1e-9 * h else f"from h = {h_fail:.3g} s on"
+        notes.append(f"{name}: its curve (and h_max) ends {where}: {why}")
+    return notes
+
+
 def advise(
     model: Any,
     h: float,
@@ -380,6 +521,8 @@ def advise(
     h_max_search: float | None = None,
     samples: int = 5000,
     workers: int | None = None,
+    noise_levels: Any = None,
+    newton: Mapping[str, Any] | None = None,
 ) -> Advice:
     """Rank sampled-data rules by their predicted one-step error on noisy data.
 
@@ -392,7 +535,8 @@ def advise(
     h : float
         Sampling period (s).
     eta_pct, v_pct : float
-        Uniform noise levels, % of 1 m / 30 deg and 1 m/s / 30 deg/s.
+        Uniform noise levels, % of 1 m / 30 deg and 1 m/s / 30 deg/s (not used with
+        ``noise_levels``).
     methods : sequence of str
         Rules to compare ("E", "AB<s>", "RK<s>", "T").
     domain : Domain, optional
@@ -401,7 +545,7 @@ def advise(
         Error tolerance on eta (m, rad) and v (m/s, rad/s); gives ``h_max`` per rule.
     validate : bool
         Also measure the errors on ``seeds`` noisy copies of the reference run (a
-        Monte Carlo study on the engine).
+        Monte Carlo study on the engine; in this process with ``noise_levels``).
     signal : Signal, optional
         Input of the reference run (a closed loop: its reference). Default
         :func:`default_input` (the Fig. 6 pattern at 20 %, for a thruster vehicle).
@@ -421,10 +565,22 @@ def advise(
         Random samples of the Jacobian check.
     workers : int, optional
         Local worker processes of the Monte Carlo (default: in this process).
+    noise_levels : array_like, shape (nx,), or NoiseEstimate, optional
+        Per-state noise standard deviations (state units), e.g. the levels estimated
+        from a log (``evaluate_log(...).noise``, :func:`sampledyn.noise.
+        estimate_noise`): the noise is then uniform with these standard deviations
+        (amplitude sqrt(3) sigma) instead of ``eta_pct``, ``v_pct``.
+    newton : mapping, optional
+        Newton options of the implicit rules, ``{"tol": ..., "max_iter": ...}``.
 
     Returns
     -------
     Advice
+        A rule that fails at a trial period of the curves (Newton not converging, a
+        singular pitch, a non-finite prediction) ends its curve and its h_max there,
+        and the notes say so; one that fails at h itself ranks last, its row NaN with
+        ``failed`` set. ``h_stable`` per row: the rule's largest stable step along the
+        run.
 
     Raises
     ------
@@ -436,10 +592,12 @@ def advise(
     """
     vehicle = isinstance(model, Vehicle)
     ms = _checked_arguments(model, h, methods, rank_by, seeds, base_seed, workers)
+    ms = [m.with_newton(**newton) if newton and hasattr(m, "with_newton") else m for m in ms]
     if reference is None:
         _check_run_length(ms, h, T)
     tol = None if tolerance is None else check_tolerance(tolerance)
-    amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
+    levels = _levels(model, eta_pct, v_pct, noise_levels)
+    amp = noise_amplitudes(model.state_units, eta_pct, v_pct) if levels is None else levels
     if domain is not None and not vehicle:
         raise ValueError("`domain` bounds the Jacobians of a 6-DoF vehicle; this model is not.")
     if reference is None:
@@ -452,42 +610,64 @@ def advise(
     else:
         notes.append(f"bound, h_max_g: {NO_BOUND}.")
     curves = _curves(
-        model, ms, base, usable_periods(ms, base, ks), eta_pct, v_pct, domain, signal, samples
-    )
+        model, ms, base, usable_periods(ms, base, ks), eta_pct, v_pct, domain, signal, samples,
+        levels,
+    )  # fmt: skip
     at = int(np.argmin(np.abs(curves.h - h)))
     if abs(curves.h[at] - h) > 1e-9 * h:
         raise ValueError(f"the reference run is too short for h = {h} s; raise `T`.")
-
+    notes += _failure_notes(curves, h)
     measured: dict[str, tuple[float, float, float, float]] = {}
     if validate:
-        found = measure_noisy(
-            model, [m.name for m in ms], base, signal, h, [(eta_pct, v_pct)], seeds,
-            base_seed, ("max", "rms"), workers=workers,
-        )  # fmt: skip
-        for m in ms:
-            per = {n: found[(float(eta_pct), float(v_pct), m.name, n)] for n in ("max", "rms")}
-            worst, rms = pooled(per)
-            measured[m.name] = (float(worst[0]), float(worst[1]), float(rms[0]), float(rms[1]))
+        noise = (eta_pct, v_pct, levels, bool(newton))
+        measured = _measured(model, ms, base, signal, h, noise, seeds, base_seed, workers)
     else:
         notes.append("meas: no Monte Carlo (validate=False).")
+    stable = _stable_steps(model, ms, base, h)
+    rows, tau = _advice_rows(ms, curves, at, measured, tol, rank_by, vehicle, stable, h)
+    return Advice(
+        vehicle=getattr(model, "name", type(model).__name__),
+        h=float(h),
+        eta_pct=float(eta_pct) if levels is None else math.nan,
+        v_pct=float(v_pct) if levels is None else math.nan,
+        tolerance=tol,
+        rank_by=rank_by,
+        rows=tuple(rows),
+        domain=domain,
+        jacobians=jac,
+        curves=curves,
+        rank_agreement=tau,
+        seeds=seeds if validate else 0,
+        notes=tuple(notes),
+        noise_levels=None if levels is None else levels / np.sqrt(3.0),
+        state_names=tuple(model.state_names),
+    )
 
+
+def _advice_rows(
+    ms: list[Any], curves: ErrorCurves, at: int, measured: dict[str, Any], tol: Any,
+    rank_by: str, vehicle: bool, stable: dict[str, float], h: float,
+) -> tuple[list[AdviceRow], float | None]:  # fmt: skip
+    """The ranked rows and the Kendall tau of predicted vs measured order."""
     pred_key = {
         m.name: rank_key(
             float(curves.predicted[m.name][at, 0]), float(curves.predicted[m.name][at, 1]), rank_by
         )
         for m in ms
     }
-    order = sorted(pred_key, key=lambda n: pred_key[n])
+    order = sorted(pred_key, key=lambda n: _sort_key(pred_key[n]))
     meas_order: list[str] = []
     tau = None
-    if validate:
+    if measured:
         meas_key = {n: rank_key(measured[n][0], measured[n][1], rank_by) for n in measured}
-        meas_order = sorted(meas_key, key=lambda n: meas_key[n])
-        if len(ms) > 1:
+        meas_order = sorted(meas_key, key=lambda n: _sort_key(meas_key[n]))
+        both = [n for n in order if math.isfinite(pred_key[n]) and math.isfinite(meas_key[n])]
+        if len(both) > 1:
             from scipy.stats import kendalltau
 
-            tau = float(kendalltau([pred_key[n] for n in order], [meas_key[n] for n in order])[0])
+            tau = float(kendalltau([pred_key[n] for n in both], [meas_key[n] for n in both])[0])
     nan4 = (math.nan,) * 4
+    best = pred_key[order[0]]
     rows = []
     for rank, name in enumerate(order, start=1):
         m = next(mm for mm in ms if mm.name == name)
@@ -495,6 +675,7 @@ def advise(
         be, bv = curves.bound[name][at]
         te, tv = curves.truncation[name][at]
         me, mv, re, rv = measured.get(name, nan4)
+        fail = curves.failed.get(name)
         rows.append(
             AdviceRow(
                 method=name,
@@ -515,22 +696,10 @@ def advise(
                 if tol is None or not vehicle
                 else largest_h(curves, name, tol, rank_by=rank_by, which="bound"),
                 rank=rank,
-                measured_rank=meas_order.index(name) + 1 if validate else None,
-                near_best=pred_key[name] <= pred_key[order[0]] * (1.0 + TIE),
+                measured_rank=meas_order.index(name) + 1 if measured else None,
+                near_best=math.isfinite(pred_key[name]) and pred_key[name] <= best * (1.0 + TIE),
+                h_stable=stable.get(name),
+                failed=fail[1] if fail is not None and fail[0] <= h * (1 + 1e-9) else None,
             )
         )
-    return Advice(
-        vehicle=getattr(model, "name", type(model).__name__),
-        h=float(h),
-        eta_pct=float(eta_pct),
-        v_pct=float(v_pct),
-        tolerance=tol,
-        rank_by=rank_by,
-        rows=tuple(rows),
-        domain=domain,
-        jacobians=jac,
-        curves=curves,
-        rank_agreement=tau,
-        seeds=seeds if validate else 0,
-        notes=tuple(notes),
-    )
+    return rows, tau

@@ -30,6 +30,8 @@ _EXPORTS: dict[str, str] = {
     "MAX_H_RATE": "._evaluate",
     "Sampling": "._time",
     "evaluate_log": "._evaluate",
+    "estimate_log_noise": "._evaluate",
+    "ROW_KEYS": "._evaluate",
     "log_from_frame": "._read",
     "read_clock": "._time",
     "read_log": "._open",
@@ -43,7 +45,9 @@ __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
     from ._evaluate import MAX_H_RATE as MAX_H_RATE
+    from ._evaluate import ROW_KEYS as ROW_KEYS
     from ._evaluate import LogEvaluation as LogEvaluation
+    from ._evaluate import estimate_log_noise as estimate_log_noise
     from ._evaluate import evaluate_log as evaluate_log
     from ._formats import LOG_FORMATS as LOG_FORMATS
     from ._formats import LogFormat as LogFormat

@@ -15,7 +15,7 @@ Either way the prediction is the trapezoid solution to within ``tol (1 + |x_i|)`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
@@ -57,6 +57,14 @@ class Tustin(FixedRule):
             raise ValueError(f"`tol` must be positive, got {self.tol}.")
         if self.max_iter < 1:
             raise ValueError(f"`max_iter` must be >= 1, got {self.max_iter}.")
+
+    def with_newton(self, tol: float | None = None, max_iter: int | None = None) -> Tustin:
+        """A copy with other Newton options (None keeps the current one)."""
+        return replace(
+            self,
+            tol=self.tol if tol is None else float(tol),
+            max_iter=self.max_iter if max_iter is None else int(max_iter),
+        )
 
     @property
     def family(self) -> str:
@@ -138,8 +146,10 @@ class Tustin(FixedRule):
                     f"Tustin's Newton iteration did not converge in {self.max_iter} "
                     f"iterations on {bad.size} of the {hi - lo} intervals {lo}..{hi - 1} "
                     f"(first: n={n}, t={t1[n] - h[n]:g} s, h_n={h[n]:g} s). The step may be "
-                    "too large for the model's stiffness there; raise `max_iter` or `tol`, or "
-                    "use a smaller h."
+                    "too large for the model's stiffness there; raise the iterations or the "
+                    "tolerance (sampledyn.methods.Tustin(max_iter=..., tol=...), the `newton` "
+                    "argument of evaluate_log / advise, --newton-max-iter / --newton-tol of "
+                    "`sampledyn evaluate` and `advise`), or use a smaller h."
                 )
         return x
 
