@@ -19,6 +19,7 @@ from ._trajectory import Trajectory
 
 __all__ = [
     "NOISE_ORDER",
+    "RESOLVED",
     "NOISE_REFERENCE",
     "NoiseEstimate",
     "add_noise",
@@ -120,6 +121,11 @@ def add_noise(
 #: Order k of the differences :func:`estimate_noise` takes by default.
 NOISE_ORDER = 4
 
+#: Least ratio of the order k + 1 to the order k estimate for a state's estimate to
+#: count as the noise's (:attr:`NoiseEstimate.resolved`): noise alone gives 1 to the
+#: sampling spread (0.97..1.01 on a 113-sample log, 0.98..1.00 on 800 samples).
+RESOLVED = 0.9
+
 
 def difference_weights(t: np.ndarray) -> np.ndarray:
     """Weights c, shape (M, k + 1), of the k-th divided difference on each window of
@@ -170,6 +176,18 @@ class NoiseEstimate:
     state_names: tuple[str, ...]
     state_units: tuple[str, ...]
     across_jumps: int = 0
+
+    @property
+    def resolved(self) -> np.ndarray:
+        """Per state, shape (nx,): True where the estimate is the noise's, not the
+        motion's: the order k + 1 estimate is within ``RESOLVED`` (10 %) of it. A
+        signal that is not smooth over k steps (a motion near the Nyquist frequency,
+        h too long for the dynamics) falls with the order, and cannot be told from
+        noise by its differences at all near the Nyquist frequency; there the estimate
+        is an upper bound."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = self.check / self.sigma
+        return np.asarray(np.isfinite(ratio) & (ratio >= RESOLVED))
 
     def describe(self) -> str:
         """``x 9.2e-06 m, y 2.5e-05 m, ...`` (the estimated states only)."""

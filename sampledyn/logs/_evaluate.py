@@ -151,6 +151,14 @@ def _table_row(r: dict[str, Any]) -> str:
     return f"{head} {nums} {r['samples']:8d} |{floor} | {stable:>9s}{flag}"
 
 
+def _unresolved(noise: NoiseEstimate) -> list[str]:
+    return [
+        n
+        for n, s, ok in zip(noise.state_names, noise.sigma, noise.resolved, strict=True)
+        if np.isfinite(s) and not ok
+    ]
+
+
 def _table(ev: LogEvaluation) -> str:
     head = (
         f"{'method':10s} {'order':>5s} {'position/angle':>13s} {'velocity':>12s} "
@@ -183,6 +191,13 @@ def _legend(ev: LogEvaluation) -> list[str]:
             f"floor: the rms the estimated noise alone gives through the rule; * within "
             f"{FLOOR_FACTOR:g}x of it: that block measures the sensor, not the model"
         )
+        vague = [] if ev.noise is None else _unresolved(ev.noise)
+        if vague:
+            out.append(
+                f"noise not resolved for {', '.join(vague)} (the motion is not smooth over "
+                f"{ev.noise.order + 1} samples, so the differences hold it too): their floor "
+                "is an upper bound, and their blocks get no * mark"
+            )
     else:
         out.append(f"floor: rms of the noise alone (no * mark: the table's norm is {ev.norm})")
     if ev.stability:
@@ -544,9 +559,28 @@ class _Run:
         if self.norm == "rms":
             for b in ("eta", "v", "all"):
                 f = out[f"floor_{b}"]
-                if math.isfinite(f):
+                if math.isfinite(f) and self.resolved(b):
                     out[f"at_floor_{b}"] = bool(out[f"err_{b}"] <= FLOOR_FACTOR * f)
         return out
+
+    def resolved(self, block: str) -> bool:
+        """True if the noise of every counted state of ``block`` is resolved
+        (:attr:`NoiseEstimate.resolved`): only then does a floor mark mean anything."""
+        if self.noise is None:
+            return False
+        states = _block_states(self.data)[block]
+        return bool(self.noise.resolved[states].all()) if states.size else False
+
+
+def _block_states(data: LogData) -> dict[str, np.ndarray]:
+    """The counted states of each block ("eta", "v", "all"), as indices."""
+    kind = np.array([NOISE_REFERENCE.get(u, ("", 0.0))[0] for u in data.traj.state_units])
+    counted = np.array([n not in data.unmeasured for n in data.traj.state_names])
+    return {
+        "eta": np.flatnonzero((kind == "eta") & counted),
+        "v": np.flatnonzero((kind == "v") & counted),
+        "all": np.flatnonzero(counted),
+    }
 
 
 def _failed_numbers(kind: str, text: str) -> dict[str, Any]:

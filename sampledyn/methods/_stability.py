@@ -36,9 +36,10 @@ __all__ = [
     "rational_amplification",
 ]
 
-#: Amplification up to 1 + this counts as stable (rounding of |R| at |R| = 1, e.g. at
-#: z = 0 where every consistent rule has R = 1).
-AMPLIFICATION_TOL = 1e-12
+#: Amplification up to 1 + this counts as stable: the rounding of |R| where it is 1
+#: (about 45 units of the last place; a growth of 1e-14 per step is 1e-8 after a
+#: million steps).
+AMPLIFICATION_TOL = 1e-14
 
 # The scan of r = h |lambda| along each ray: geometric from R_MIN to R_MAX (every
 # rule's region ends far inside |z| = 1e3, except the A-stable ones, which then count
@@ -92,8 +93,9 @@ def largest_stable_steps(method: Any, eigenvalues: Any) -> np.ndarray:
     for every 0 < h' <= h (s), shape of ``eigenvalues``.
 
     inf where the rule is stable along the whole ray (an A-stable rule and Re lambda
-    <= 0, or r = h |lambda| up to 1e3), and for lambda = 0; 0 where it is unstable at
-    every h > 0 (e.g. Euler on an undamped mode, Re lambda = 0). ``method`` answers
+    <= 0, or r = h |lambda| up to 1e3), and for lambda = 0; 0 where it is unstable
+    already at h |lambda| = 1e-6, the scan's first point (Euler on an undamped mode,
+    Re lambda = 0, grows by sqrt(1 + (h |lambda|)^2) at every h > 0). ``method`` answers
     ``amplification(z)`` (:class:`~sampledyn.methods.Stability`). Accurate to a
     relative 2^-32 of the first exit from the region along the ray (scan on a
     geometric grid of r, then bisection); a region that the ray leaves and enters
@@ -120,6 +122,6 @@ def largest_stable_steps(method: Any, eigenvalues: Any) -> np.ndarray:
         hi = np.where(worse, mid, hi)
         lo = np.where(worse, lo, mid)
     exit_r = np.full(live.size, np.inf)
-    exit_r[hit] = lo
+    exit_r[hit] = np.where(first == 0, 0.0, lo)  # unstable at the scan's first r: 0
     out[live] = exit_r / mag[live]
     return out.reshape(lam.shape)
