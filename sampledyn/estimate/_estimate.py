@@ -108,19 +108,18 @@ class EstimationResult:
     iterations : int
         Iterations of IRLS or function evaluations of least_squares (0 otherwise).
     converged : bool
-    flags : Mapping[str, tuple[str, ...]]
-        What makes an estimate mean little, per parameter (only those flagged):
-        "loose", its standard error is >= its magnitude (the data hardly excite the
-        term: sign and size undetermined); "bounds", it lies outside the physical
-        bounds the model declares (``model.param_bounds``: a negative damping or
-        added mass of a vehicle, a SymbolicModel's ``param_bounds``), so the fit has
-        absorbed noise or forces the model lacks.
     bounds : Mapping[str, tuple[float, float]]
         The physical bounds the estimates were checked against (those the model
         declares for the free parameters).
     left_out : int
         One-step errors left out because the rule's history straddles a change of the
         sampled input (``skip_input_jumps``).
+    straddling : int
+        One-step errors whose history straddles such a change and that were counted
+        (``skip_input_jumps=False``, or a continuously varying input).
+
+    The property :attr:`flags` says, per parameter, what makes its estimate mean
+    little.
     """
 
     params: Mapping[str, float]
@@ -143,9 +142,19 @@ class EstimationResult:
     solver: str
     iterations: int
     converged: bool
-    flags: Mapping[str, tuple[str, ...]] = field(default_factory=lambda: MappingProxyType({}))
     bounds: Mapping[str, tuple[float, float]] = field(default_factory=lambda: MappingProxyType({}))
     left_out: int = 0
+    straddling: int = 0
+
+    @property
+    def flags(self) -> dict[str, tuple[str, ...]]:
+        """Per parameter (only those flagged): "loose", its standard error is >= its
+        magnitude (the data hardly excite the term: sign and size undetermined; the
+        "(*)" of the printed estimate); "bounds", it lies outside the physical bounds
+        the model declares (``model.param_bounds``: a negative damping or added mass
+        of a vehicle, a SymbolicModel's ``param_bounds``): the fit absorbed noise or
+        forces the model lacks (the "(!)")."""
+        return _flags(self.params, self.std_errors, self.bounds)
 
     def __str__(self) -> str:
         lines = [
@@ -180,6 +189,12 @@ class EstimationResult:
             lines.append(
                 f"  {self.left_out} one-step errors whose history straddles an input jump "
                 "left out (skip_input_jumps)"
+            )
+        elif self.straddling:
+            lines.append(
+                f"  {self.straddling} one-step errors whose history straddles an input jump "
+                "counted (they bias the estimate by O(h); skip_input_jumps=True leaves them "
+                "out)"
             )
         if self.weights is not None:
             lines.append(f"  weights = {np.array2string(self.weights, precision=6)}")
@@ -257,24 +272,26 @@ def _free_params(model: Any, params: Any, lf: Any, free_weights: bool) -> tuple[
 
 def _window(
     data: Trajectory, history: int, after: float | None, skip_input_jumps: bool | None
-) -> tuple[np.ndarray, int]:
-    """``(k, left_out)``: indices k of the predicted samples used (k >= history, t_k >=
-    after) and how many were left out because u is not identical on samples
-    k-history..k-1; with ``skip_input_jumps`` None, those are left out only where the
-    input is piecewise constant (they are fewer than half), see :func:`estimate`."""
+) -> tuple[np.ndarray, int, int]:
+    """``(k, left_out, straddling)``: indices k of the predicted samples used (k >=
+    history, t_k >= after), how many were left out because u is not identical on
+    samples k-history..k-1, and how many such were kept; with ``skip_input_jumps``
+    None, they are left out only where the input is piecewise constant (they are
+    fewer than half), see :func:`estimate`."""
     k = np.arange(history, data.n_samples)
     if after is not None:
         if not math.isfinite(after):
             raise ValueError(f"`after` must be a finite time (s) or None, got {after}.")
         k = k[data.t[k] >= after - 1e-9 * max(1.0, abs(after))]
-    if skip_input_jumps is False or history < 2 or k.size == 0:
-        return k, 0
+    if history < 2 or k.size == 0:
+        return k, 0, 0
     same = np.ones(k.size, dtype=bool)
     for i in range(1, history):
         same &= (data.u[k - i] == data.u[k - 1 - i]).all(axis=1)
-    if skip_input_jumps is None and same.sum() < 0.5 * k.size:
-        return k, 0  # the input changes at most samples: continuous, nothing to skip
-    return k[same], int((~same).sum())
+    straddling = int((~same).sum())
+    if skip_input_jumps is False or (skip_input_jumps is None and same.sum() < 0.5 * k.size):
+        return k, 0, straddling  # kept (a continuous input changes at most samples)
+    return k[same], straddling, 0
 
 
 def _components(
@@ -495,13 +512,14 @@ def estimate(
     lf = _linear_form(model, measured)
     free = _free_params(model, params, lf, free_weights)
     skip = skip_input_jumps if ab_weights is not None else False
-    k, left_out = _window(measured, history, after, skip)
+    k, left_out, straddling = _window(measured, history, after, skip)
     comps = _components(model, measured, free, lf, free_weights)
     scale = _scale(component_scale, measured, k, comps)
     linear = lf is not None and set(free) <= set(lf.names)
     ctx = _Context(
-        model, measured, rule, k, comps, scale, free, after, tol, max_iter, cond_warn, left_out
-    )
+        model, measured, rule, k, comps, scale, free, after, tol, max_iter, cond_warn,
+        left_out, straddling,
+    )  # fmt: skip
 
     if free_weights:
         assert ab_weights is not None
@@ -544,6 +562,7 @@ class _Context:
     max_iter: int
     cond_warn: float
     left_out: int = 0
+    straddling: int = 0
 
     @property
     def n_rows(self) -> int:
@@ -621,9 +640,9 @@ class _Context:
             solver=solver,
             iterations=int(iterations),
             converged=bool(converged),
-            flags=MappingProxyType(_flags(values, std_map, bounds)),
             bounds=MappingProxyType(bounds),
             left_out=int(self.left_out),
+            straddling=int(self.straddling),
         )
 
 

@@ -49,7 +49,9 @@ class EstimatedAdamsBashforth:
         only).
     skip_input_jumps : bool or None
         Leave out the one-step errors whose history straddles an input jump (None: when
-        the input is piecewise constant; see :func:`sampledyn.estimate`).
+        the input is piecewise constant; see :func:`sampledyn.estimate`). Default
+        False: the rule as the paper defines it, every one-step error counted (its
+        Fig. 2); the estimate says how many straddle a jump.
     """
 
     order: int
@@ -58,7 +60,7 @@ class EstimatedAdamsBashforth:
     after_fraction: float | None = None
     params: tuple[str, ...] | None = None
     free_weights: bool = False
-    skip_input_jumps: bool | None = None
+    skip_input_jumps: bool | None = False
 
     def __post_init__(self) -> None:
         ab_coefficients(self.order)  # validates the order

@@ -547,7 +547,7 @@ class _Run:
         else:
             x_hat = _predict_log(method, self.model, self.data)
         err = local_errors(x_hat, self.data.traj)
-        bad = self.data.valid & np.isnan(err).any(axis=1) & _mask(self.data.valid, method.history)
+        bad = np.isnan(err).any(axis=1) & _expected(self.data, method.history)
         if bad.any():
             n = int(np.flatnonzero(bad)[0])
             raise FloatingPointError(
@@ -570,6 +570,15 @@ class _Run:
             return False
         states = _block_states(self.data)[block]
         return bool(self.noise.resolved[states].all()) if states.size else False
+
+
+def _expected(data: LogData, history: int) -> np.ndarray:
+    """The rows a rule with ``history`` must predict: valid, with ``history`` valid rows
+    before them in their segment."""
+    inside = np.zeros(data.traj.n_samples, dtype=bool)
+    for a, b in data.segments:
+        inside[a + history : b] = True
+    return inside & _mask(data.valid, history)
 
 
 def _block_states(data: LogData) -> dict[str, np.ndarray]:
