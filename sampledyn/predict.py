@@ -75,6 +75,17 @@ def predict(
         vehicle's pitch near +-90 deg): the message says whether the measured data
         hold it, or the rule formed it between samples, and then names the rule and
         the sample whose prediction did.
+
+    Notes
+    -----
+    A model whose f jumps (``sign``, ``Heaviside``, ``Piecewise`` of a state, see
+    ``measured.sliding``): a rule evaluates the model's f at each of its points, the
+    branch of the side that point is on (on a surface, the side the motion takes or
+    Filippov's sliding vector). Over an interval that crosses a surface, or enters or
+    leaves a sliding interval, the one-step error is then of order h times the jump of
+    f (the rule does not know where the jump is), not of the rule's order h^(s+1);
+    inside a sliding interval whose samples lie on the surface, rules that use f at
+    the samples only follow it exactly.
     """
     m = get_predictor(method)
     check_measured(model, measured)

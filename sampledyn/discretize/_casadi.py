@@ -130,12 +130,7 @@ def _sympy_rhs(model: Any, x: Any, u: Any) -> Any:
         )
     values = model.params
     subs = {s: values[s.name] for s in e["params"]}
-    rhs = [sp.sympify(r).subs(subs) for r in e["rhs"]]
-    if any(r.has(sp.Piecewise) for r in rhs):
-        raise ValueError(
-            f"{model.name!r} uses Piecewise, which has no CasADi translation here; write it "
-            "with Max/Min/Heaviside/sign/Abs."
-        )
+    rhs = [_branching_calls(sp, sp.sympify(r).subs(subs)) for r in e["rhs"]]
 
     def fmax(*a: Any) -> Any:
         return functools.reduce(ca.fmax, a)
@@ -149,10 +144,44 @@ def _sympy_rhs(model: Any, x: Any, u: Any) -> Any:
     names = {
         "Abs": ca.fabs, "abs": ca.fabs, "sign": ca.sign, "Heaviside": heaviside,
         "Max": fmax, "Min": fmin, "max": fmax, "min": fmin,
+        "_IfElse": ca.if_else, "_And": _fold(ca.logic_and), "_Or": _fold(ca.logic_or),
+        "_Not": ca.logic_not,
     }  # fmt: skip
     fn = sp.lambdify([*e["states"], *e["inputs"]], rhs, modules=[names, ca])
     out = fn(*[x[i] for i in range(x.shape[0])], *[u[i] for i in range(u.shape[0])])
     return ca.vertcat(*[ca.SX(v) if isinstance(v, int | float) else v for v in out])
+
+
+def _fold(op: Any) -> Any:
+    def fold(*a: Any) -> Any:
+        return functools.reduce(op, a)
+
+    return fold
+
+
+def _branching_calls(sp: Any, e: Any) -> Any:
+    """``e`` with every ``Piecewise`` as nested ``_IfElse(cond, then, else)`` calls and
+    its logic as ``_And``/``_Or``/``_Not`` calls, which the CasADi namespace maps to
+    ``casadi.if_else`` and ``casadi.logic_*``: Python's ``if`` and ``and`` cannot take
+    CasADi symbols. A Piecewise without a True branch is NaN where no condition holds
+    (as sympy's)."""
+    names = {sp.And: "_And", sp.Or: "_Or", sp.Not: "_Not"}
+
+    def logic(c: Any) -> Any:
+        if c is sp.true or c is sp.false:
+            return sp.Integer(1 if c is sp.true else 0)
+        for kind, name in names.items():
+            if isinstance(c, kind):
+                return sp.Function(name)(*[logic(a) for a in c.args])
+        return c
+
+    def piecewise(node: Any) -> Any:
+        out = sp.nan
+        for value, cond in reversed(node.args):
+            out = value if cond is sp.true else sp.Function("_IfElse")(logic(cond), value, out)
+        return out
+
+    return e.replace(lambda n: isinstance(n, sp.Piecewise), piecewise)
 
 
 def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
@@ -173,15 +202,17 @@ def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
 def casadi_rhs(model: Any) -> Any:
     """``casadi.Function`` f(x, u) -> x' of a continuous-time model (SX).
 
-    Supported: symbolic models (from their sympy expressions), the AUV-like system,
+    Supported: symbolic models (from their sympy expressions: ``Piecewise`` as
+    ``casadi.if_else``, ``sign`` and ``Heaviside`` with their values at zero as the
+    formula gives them), the AUV-like system,
     vehicles and other hand-written kernels without branches on x or u (from the
     kernel's own source), closed loops of those with a linear feedback.
 
     Raises
     ------
     ValueError
-        for a time-varying symbolic model, Piecewise, or a kernel that branches on a
-        state or input (named).
+        for a time-varying symbolic model, or a kernel that branches on a state or
+        input (named).
     """
     ca = _casadi()
     x = ca.SX.sym("x", int(model.nx))

@@ -30,8 +30,10 @@ from .._trajectory import Trajectory
 from ..methods import DiscreteTimeSystem, Estimator, get_method, uniform_step
 from ..models import (
     JacobianUnavailableError,
+    jump_surface_at,
     kernel_import_line,
     load_generated_module,
+    refuse_jumps,
 )
 from ..predict import check_measured
 from ..simulate import switching
@@ -61,6 +63,7 @@ jac = njit(inline="always", error_model="numpy")(_jac_kernel.py_func)
 # kernel and switching function; NaN where it fails.
 _BIND_FLOW = """
 from sampledyn.simulate import integrate_intervals as _integrate_intervals
+from sampledyn.simulate import no_gradient as _no_gradient
 
 # The integrator takes the model's kernels as function pointers, which numba's disk
 # cache cannot keep: this module compiles in each process.
@@ -90,7 +93,8 @@ def flow(t, x, u, p, h, rtol, atol, out):
     diff = np.empty((1, nx))
     restart = np.ones(2, dtype=np.bool_)
     status, _ = _integrate_intervals(
-        _rhs_kernel, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol, False, 0, 1,
+        _rhs_kernel, _no_gradient, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol,
+        False, 0, 1,
         h, _sw_kernel, _SW_P, _SW_IO, X, steps, diff, restart,
     )
     for j in range(nx):
@@ -224,6 +228,10 @@ def _module(model: Any, step: Any) -> tuple[Any, Any]:
     body = _BIND + (_BIND_JAC if needs_jac else "")
     kernels = {"_rhs_kernel": rhs, **({"_jac_kernel": jac} if needs_jac else {})}
     if "flow" in step.kernels:
+        refuse_jumps(
+            model, "model", "the exact-flow step integrates one interval without the "
+            "branches of f; use sampledyn.simulate for its exact samples.",
+        )  # fmt: skip
         sw, sp, io = switching(model)
         body += _BIND_FLOW.format(sp=[float(v) for v in sp], io=[bool(v) for v in io])
         kernels["_sw_kernel"] = sw
@@ -519,11 +527,21 @@ class DiscreteModel:
         ------
         JacobianUnavailableError
             if the model has no df/dx or df/du.
+        ValueError
+            at a state on a switching surface where f jumps (no df/dx exists there).
         """
         z, u = self._vectors(z, u)
         _finite(z, "z")
         _finite(u, "u")
         c = self._core
+        applied_u = z[self._core :] if self.delay else u
+        surface = jump_surface_at(self.model, float(t), z[: self.nx], applied_u)
+        if surface is not None:
+            raise ValueError(
+                f"`z` puts the state on the switching surface {surface} = 0, across which f "
+                "jumps: f has no Jacobian there, so the model has no linearisation at this "
+                "point. Linearise at a state off the surface (on the side the motion is)."
+            )
         applied = z[c:] if self.delay else u
         A, B = self.step_data.linearize(self.model, float(t), z[:c], applied, self.h)
         if not self.delay:

@@ -192,7 +192,7 @@ def _legend(ev: LogEvaluation) -> list[str]:
             f"{FLOOR_FACTOR:g}x of it: that block measures the sensor, not the model"
         )
         vague = [] if ev.noise is None else _unresolved(ev.noise)
-        if vague:
+        if vague and ev.noise is not None:
             out.append(
                 f"noise not resolved for {', '.join(vague)} (the motion is not smooth over "
                 f"{ev.noise.order + 1} samples, so the differences hold it too): their floor "

@@ -48,6 +48,7 @@ def test_bad_argument_exits_with_message(capsys):
     assert "`h`" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_estimated_rules_are_known_to_a_fresh_command():
     """The estimation layer registers Ee/ABe<s>; a command run in a new process (no
     other import first) must know them."""

@@ -139,6 +139,7 @@ def _store_with_rows(path: Path, n: int) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_results_into_a_closed_pipe_exits_quietly(tmp_path):
     db = _store_with_rows(tmp_path / "r.db", 20000)  # far more than a pipe buffer holds
     proc = subprocess.Popen(
@@ -277,6 +278,7 @@ def test_version_and_quiet(tmp_path, capsys):
         assert capsys.readouterr().err == ""
 
 
+@pytest.mark.slow
 def test_advise_seed_and_json(tmp_path, capsys):
     base = ["advise", "--h", "0.1", "--methods", "E,AB4", "--T", "10", "--seeds", "1",
             "--format", "json", "--out", str(tmp_path)]  # fmt: skip
@@ -331,6 +333,7 @@ def _read_all(fd: int, proc: subprocess.Popen[bytes], timeout: float) -> bytes:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pty")
 def test_a_terminal_hears_from_the_command_before_the_kernels_load(tmp_path):
     """The start-up line comes before numba or the models are imported (so also
@@ -361,6 +364,7 @@ def test_a_terminal_hears_from_the_command_before_the_kernels_load(tmp_path):
 #    malloc setting -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_non_plotting_commands_do_not_import_matplotlib(tmp_path):
     cfg = write_sweep(tmp_path / "s.toml", h="[0.02]", seeds=1)
     db = tmp_path / "r.db"
@@ -430,12 +434,13 @@ def test_fig7_of_another_vehicle_does_not_overwrite_the_default_output():
     assert fig7_out("/home/me/my_rov.toml") == "out/fig7_my_rov"
 
 
-def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(capsys):
+@pytest.mark.slow
+def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(tmp_path, capsys):
     """The h_max search runs RK4 at periods up to 2 s, where a stage leaves the data's
     pitch range (the RexROV's Fig. 6 run stays within 22 deg; stages reached 85 deg and
     the vehicle warned as if the data had): no pitch warning, the domain says the truth."""
     assert main(["advise", "--vehicle", "rexrov", "--input", "fig6", "--h", "0.1",
-                 "--methods", "RK4", "--no-validate"]) == 0  # fmt: skip
+                 "--methods", "RK4", "--no-validate", "--out", str(tmp_path)]) == 0  # fmt: skip
     out, err = capsys.readouterr()
     assert "pitch |theta|" not in err
     theta = float(re.search(r"\|theta\|<=([0-9.]+) deg", out).group(1))
@@ -479,6 +484,7 @@ def test_an_empty_file_is_no_store_to_read(tmp_path, capsys):
     assert empty.stat().st_size == 0
 
 
+@pytest.mark.slow
 def test_closed_loop_takes_the_vehicles_its_help_lists(tmp_path, capsys):
     assert main(["-q", "reproduce", "closed-loop", "--vehicle", "rexrov,bluerov2_heavy",
                  "--h", "0.5", "--methods", "RK4", "--seeds", "1", "--T", "20", "--after", "5",

@@ -104,3 +104,19 @@ def test_trim_keeps_the_direct_solve_where_it_is_level():
         np.testing.assert_array_equal(x, xd)
         np.testing.assert_array_equal(u, ud)
         assert abs(math.degrees(x[4])) < 0.1
+
+
+@pytest.mark.slow  # a vehicle's domain maxima for the bound: a long study here
+def test_advise_cli_takes_noise_levels_and_newton_options(tmp_path, capsys):
+    from sampledyn.cli import main
+
+    args = ["advise", "--vehicle", "bluerov2_heavy", "--methods", "E,T", "--T", "10",
+            "--no-validate", "--out", str(tmp_path)]  # fmt: skip
+    assert main([*args, "--noise-levels", "u=2e-3,v=2e-3,w=2e-3", "--newton-max-iter", "40"]) == 0
+    out = capsys.readouterr().out
+    assert "noise per state (std, uniform): u 0.002, v 0.002, w 0.002" in out
+    assert "h_stab" in out
+    with pytest.raises(SystemExit) as bad:
+        main([*args, "--noise-levels", "speed=1"])
+    assert bad.value.code == 3
+    assert "'speed' is no state of 'bluerov2_heavy'" in capsys.readouterr().err

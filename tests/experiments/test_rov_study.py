@@ -206,6 +206,7 @@ def test_norm_evidence_identifies_the_norm():
     assert "AB1 ~ 76xAB4 (1.6e-05, 2.1e-07)" in table
 
 
+@pytest.mark.slow
 def test_small_rov_study_is_the_same_in_one_or_two_processes():
     study = ROVStudy(T=40.0, after=10.0, seeds=2, noise_pairs=((0, 0), (10, 2)),
                      methods=("AB1", "AB4", "RK4"))  # fmt: skip

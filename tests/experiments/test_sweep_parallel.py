@@ -10,6 +10,8 @@ import sampledyn as sd
 from sampledyn.cli import EXIT_UNAVAILABLE, main
 from sampledyn.experiments.sweep import run_sweep
 
+pytestmark = pytest.mark.slow  # worker processes and dask clusters
+
 distributed = pytest.importorskip("distributed")
 
 

@@ -24,8 +24,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 # ---------------------------------------------------------- the AUV-like system
 # The hand-written kernels that the symbolic AUVLike replaced (eqs. (9)-(10)); kept
-# here as the independent reference.
-@njit(RHS_SIG, cache=True)
+# here as the independent reference. Not cached: numba would write the cache next to
+# this file, into the repository (tests write below tmp_path only).
+@njit(RHS_SIG)
 def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
@@ -35,7 +36,7 @@ def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     out[1] = alpha * vel * vel + beta * vel + gamma * vel * abs(vel) + delta * s2 + u[0]
 
 
-@njit(JAC_SIG, cache=True)
+@njit(JAC_SIG)
 def _auv_jac(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
@@ -276,6 +277,7 @@ _CACHE_SCRIPT = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_second_process_loads_the_kernels_from_the_disk_cache(tmp_path):
     env = dict(os.environ, SAMPLEDYN_CACHE_DIR=str(tmp_path), PYTHONPATH=str(REPO))
     env.pop("NUMBA_CACHE_DIR", None)
@@ -296,6 +298,7 @@ def test_second_process_loads_the_kernels_from_the_disk_cache(tmp_path):
     print(f"first {first['seconds']:.2f} s, second {second['seconds']:.2f} s")
 
 
+@pytest.mark.slow
 def test_unwritable_cache_dir_falls_back_with_a_warning(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
@@ -314,6 +317,7 @@ def test_unwritable_cache_dir_falls_back_with_a_warning(tmp_path):
     assert "SAMPLEDYN_CACHE_DIR" in message and "not writable" in message
 
 
+@pytest.mark.slow
 def test_import_sampledyn_does_not_import_sympy():
     code = "import sys, sampledyn; print('sympy' in sys.modules)"
     env = dict(os.environ, PYTHONPATH=str(REPO))

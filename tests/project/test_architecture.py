@@ -39,6 +39,7 @@ LAYERS: dict[str, int] = {
     "sampledyn.signals": 1,
     "sampledyn.methods": 2,
     "sampledyn.simulate": 3,
+    "sampledyn._integrator": 3,
     "sampledyn.noise": 3,
     "sampledyn.errors": 3,
     "sampledyn.predict": 3,

@@ -362,6 +362,7 @@ def test_bad_arguments_name_themselves(vehicle, runs):
         sd.advise(vehicle, H, 1.0, 1.0, rank_by="both")
 
 
+@pytest.mark.slow
 def test_cli_advise(tmp_path, capsys):
     from sampledyn.cli import main
 
