@@ -80,6 +80,7 @@ def _json(advice: Any, args: argparse.Namespace, png: Path) -> dict[str, Any]:
         if advice.noise_levels is None
         else dict(zip(advice.state_names, map(float, advice.noise_levels), strict=True)),
         "rows": [dataclasses.asdict(r) for r in advice.rows],
+        "baselines": [dataclasses.asdict(r) for r in advice.baselines],
         "failed": {n: {"h": f[0], "reason": f[1]} for n, f in advice.curves.failed.items()},
         "notes": list(advice.notes),
         "crossings": _crossings(advice),

@@ -155,6 +155,10 @@ class Advice:
     noise_levels : ndarray, shape (nx,), or None
         The per-state noise standard deviations advised on (then ``eta_pct`` and
         ``v_pct`` are NaN); None for the levels of ``eta_pct``, ``v_pct``.
+    baselines : tuple of AdviceRow
+        ``hold`` and ``kinematics`` (:mod:`sampledyn._baselines`) at h, unranked:
+        predicted, truncation and measured errors (the measured from noise draws of
+        their own, in this process; no bound, no h_max).
     """
 
     vehicle: str
@@ -172,6 +176,7 @@ class Advice:
     notes: tuple[str, ...] = field(default=())
     noise_levels: np.ndarray | None = None
     state_names: tuple[str, ...] = ()
+    baselines: tuple[AdviceRow, ...] = ()
 
     @property
     def best(self) -> str:
@@ -239,7 +244,18 @@ class Advice:
             if r.failed:
                 line += f"  failed at h: {r.failed}"
             lines.append(line)
+        for r in self.baselines:
+            lines.append(
+                f"   - {r.method:13s} | {g(r.predicted_eta)} {g(r.measured_eta)} "
+                f"{g(r.bound_eta)} | {g(r.predicted_v)} {g(r.measured_v)} {g(r.bound_v)}"
+            )
         lines.append(f"* predicted within {TIE:.0%} of the best: as good in practice")
+        if self.baselines:
+            lines.append(
+                "-: baselines, no model of forces (hold: x_n+1 = x_n; kinematics: positions "
+                "advanced with the rates, eq. (6), rates held): a rule that does not beat "
+                "them predicts nothing"
+            )
         lines.append(
             "h_stab: largest h (s) at which the rule is stable along the reference run "
             "(|R(h lambda)| <= 1 for the eigenvalues of df/dx at its samples); ! h is beyond it"
@@ -488,6 +504,62 @@ def _stable_steps(model: Any, ms: list[Any], base: Trajectory, h: float) -> dict
     return {lim.method: lim.h_stable for lim in limits}
 
 
+def _baseline_rows(
+    model: Any, base: Trajectory, signal: Any, h: float, noise: tuple[Any, ...]
+) -> tuple[AdviceRow, ...]:
+    """The baselines at h: the path prediction and, with seeds, the errors measured on
+    noisy copies (uniform noise of amplitudes ``amp``, seeded SeedSequence([base_seed,
+    k, 1]): draws of their own)."""
+    from .._baselines import BASELINES
+    from ..sensitivity import path_prediction, reference_at
+
+    eta_pct, v_pct, amp, seeds, base_seed = noise
+    clean = reference_at(base, h)
+    plant = model.plant if isinstance(model, ClosedLoop) else model
+    data = clean
+    if isinstance(model, ClosedLoop):  # the plant and its applied input, as the rules
+        u = model.applied_input(clean.t, clean.x, clean.u)
+        data = clean.replace(u=u, input_names=tuple(model.plant.input_names))
+    rows = []
+    nan = math.nan
+    for name, b in BASELINES.items():
+        p = path_prediction(plant, b, data, amp, None, eta_pct, v_pct)
+        measured = _measure_baseline(plant, b, data, amp, seeds, base_seed)
+        rows.append(
+            AdviceRow(
+                method=name, order=0, first_order_gain=nan, predicted_eta=p.eta,
+                predicted_v=p.v, bound_eta=nan, bound_v=nan, truncation_eta=p.truncation[0],
+                truncation_v=p.truncation[1], measured_eta=measured[0],
+                measured_v=measured[1], measured_rms_eta=measured[2],
+                measured_rms_v=measured[3], h_max=None, h_max_guaranteed=None, rank=0,
+                measured_rank=None,
+            )
+        )  # fmt: skip
+    return tuple(rows)
+
+
+def _measure_baseline(
+    model: Any, baseline: Any, data: Trajectory, amp: np.ndarray, seeds: int, base_seed: int
+) -> tuple[float, float, float, float]:
+    """(max eta, max v, rms eta, rms v) of a baseline on ``seeds`` noisy copies."""
+    from ..sensitivity import block_error_norms
+
+    if seeds == 0:
+        return (math.nan,) * 4
+    eta, v = [], []
+    for k in range(seeds):
+        rng = np.random.default_rng(np.random.SeedSequence([base_seed, k, 1]))
+        noisy = data.replace(x=data.x + rng.uniform(-1.0, 1.0, data.x.shape) * amp)
+        e, w = block_error_norms(noisy.x - baseline.predict(model, noisy), noisy.state_units)
+        eta.append(e)
+        v.append(w)
+    ea, va = np.concatenate(eta), np.concatenate(v)
+    return (
+        float(np.nanmax(ea)), float(np.nanmax(va)),
+        float(np.sqrt(np.nanmean(ea**2))), float(np.sqrt(np.nanmean(va**2))),
+    )  # fmt: skip
+
+
 def _sort_key(key: float) -> tuple[bool, float]:
     """Rank NaN (a rule that failed at h) last."""
     return (not math.isfinite(key), key if math.isfinite(key) else 0.0)
@@ -625,6 +697,8 @@ def advise(
         notes.append("meas: no Monte Carlo (validate=False).")
     stable = _stable_steps(model, ms, base, h)
     rows, tau = _advice_rows(ms, curves, at, measured, tol, rank_by, vehicle, stable, h)
+    spec = (eta_pct, v_pct, amp, seeds if validate else 0, base_seed)
+    baselines = _baseline_rows(model, base, signal, h, spec)
     return Advice(
         vehicle=getattr(model, "name", type(model).__name__),
         h=float(h),
@@ -641,6 +715,7 @@ def advise(
         notes=tuple(notes),
         noise_levels=None if levels is None else levels / np.sqrt(3.0),
         state_names=tuple(model.state_names),
+        baselines=baselines,
     )
 
 

@@ -48,6 +48,11 @@ def test_advise_goes_on_where_tustin_fails_at_a_trial_period(bluerov2):
     # stability beside h_max: Euler is unstable on the roll oscillation at 0.1 s
     assert a.row("T").h_stable == math.inf and a.row("E").h_stable < 0.1
     assert "h_stab" in a.table()
+    # the baselines beside the ranking: kinematics' position block is Euler's
+    assert [b.method for b in a.baselines] == ["hold", "kinematics"]
+    kin = a.baselines[1]
+    assert kin.predicted_eta == pytest.approx(a.row("E").predicted_eta, rel=1e-12)
+    assert kin.predicted_v == pytest.approx(a.baselines[0].predicted_v, rel=1e-12)
 
 
 def test_advise_on_per_state_noise_levels(bluerov2):
