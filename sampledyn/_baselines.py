@@ -54,17 +54,24 @@ def _eta_rows(data: Trajectory) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Hold:
-    """The hold baseline, ``x^_{n+1} = x_n`` (see the module docstring)."""
+class _Baseline:
+    """What the baselines share: order 0, one sample of history, f (if at all) only at
+    the samples, any time grid."""
 
-    name: str = "hold"
     family: str = "baseline"
     order: int = 0
     history: int = 1
     intersample: bool = False
     variable_step: bool = True
-    step_rule: str = "x_n+1 = x_n (no model)"
     sample_weights: None = None
+
+
+@dataclass(frozen=True)
+class Hold(_Baseline):
+    """The hold baseline, ``x^_{n+1} = x_n`` (see the module docstring)."""
+
+    name: str = "hold"
+    step_rule: str = "x_n+1 = x_n (no model)"
 
     @property
     def label(self) -> str:
@@ -88,18 +95,12 @@ class Hold:
 
 
 @dataclass(frozen=True)
-class Kinematics:
+class Kinematics(_Baseline):
     """The kinematics baseline (see the module docstring): Euler on the positions and
     angles, the other states held."""
 
     name: str = "kinematics"
-    family: str = "baseline"
-    order: int = 0
-    history: int = 1
-    intersample: bool = False
-    variable_step: bool = True
     step_rule: str = "eta_n+1 = eta_n + h_n J(eta_n) nu_n, nu_n+1 = nu_n"
-    sample_weights: None = None
 
     @property
     def label(self) -> str:
