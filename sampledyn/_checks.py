@@ -30,6 +30,7 @@ __all__ = [
     "DEFAULT_MEMORY",
     "MAX_AB_ORDER",
     "MAX_SEED",
+    "MAX_NEWTON_ITER",
     "MAX_SEEDS",
     "MEMORY_ENV",
     "MIN_STEP",
@@ -240,6 +241,12 @@ MAX_AB_ORDER = 28
 #: Most noise seeds of one Monte Carlo (``advise --seeds``): 10,000 seeds give a mean to
 #: 1 % of the spread; more is a typo. (A sweep's seeds are bounded by its max_cells.)
 MAX_SEEDS = 10_000
+
+#: Most Newton iterations of one implicit step (Tustin's ``max_iter``,
+#: ``--newton-max-iter``): Newton converges quadratically near a root, so an iteration
+#: that has not met its tolerance after 1,000 steps is not converging (the default is
+#: 25); more would only make each failing sample of a log cost that many solves.
+MAX_NEWTON_ITER = 1000
 
 #: Largest seed (a noise seed, a base seed): seeds are stored as SQLite INTEGER (int64).
 MAX_SEED = 2**63 - 1

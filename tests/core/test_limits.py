@@ -137,3 +137,26 @@ def test_workers_are_capped_at_two_per_core_with_a_note():
     assert count == 2 * cores and note is not None and "200 capped" in note
     with pytest.raises(ValueError, match="`workers` must be an int >= 1, got 0"):
         _limits.worker_count(0)
+
+
+def test_newton_iterations_are_bounded_with_the_reason(tmp_path, capsys):
+    """Tustin's max_iter (--newton-max-iter) beyond MAX_NEWTON_ITER is refused before any
+    work, naming the argument, the value and the bound; the bound itself is accepted."""
+    from sampledyn.cli import main
+    from sampledyn.exceptions import ArgumentError
+    from sampledyn.logs import write_synthetic_log
+
+    bound = _limits.MAX_NEWTON_ITER
+    assert sd.methods.Tustin(max_iter=bound).max_iter == bound
+    with pytest.raises(ArgumentError, match=rf"`max_iter` = {bound + 1} .* more than {bound}"):
+        sd.methods.Tustin(max_iter=bound + 1)
+    with pytest.raises(ArgumentError, match="max_iter"):
+        sd.methods.Tustin().with_newton(max_iter=10**12)
+    log = write_synthetic_log(tmp_path / "log.csv", T=2.0, eta_pct=1.0, v_pct=1.0)
+    args = ["evaluate", "--data", str(log), "--vehicle", "bluerov2_heavy", "--methods", "T"]
+    with pytest.raises(SystemExit) as refused:
+        main([*args, "--newton-max-iter", str(10**9)])
+    assert refused.value.code == 3
+    err = capsys.readouterr().err
+    assert "--newton-max-iter" in err and f"more than {bound}" in err
+    assert len(err.strip().splitlines()) == 1
