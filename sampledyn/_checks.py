@@ -48,6 +48,7 @@ __all__ = [
     "at_or_after",
     "ceil_ratio",
     "count",
+    "did_you_mean",
     "finite_array",
     "floor_ratio",
     "integer_ratio",
@@ -66,6 +67,27 @@ __all__ = [
 MULTIPLE_RTOL = 1e-9
 
 _ErrorType = type[ArgumentError]
+
+
+def did_you_mean(value: str, choices: Any, aliases: Any = None) -> str:
+    """`` (did you mean 'X'?)`` for the choice closest to ``value``, or ``""``.
+
+    Case is ignored (``'ab4'`` -> ``'AB4'``); otherwise the closest few by
+    :func:`difflib.get_close_matches` (its default similarity cutoff 0.6). ``aliases``
+    maps other words to a choice (``{"Euler": "E"}``): a close alias suggests its choice.
+    """
+    import difflib
+
+    words = {str(c).lower(): str(c) for c in choices}
+    words.update({str(a).lower(): str(c) for a, c in dict(aliases or {}).items()})
+    key = value.strip().lower()
+    if key in words:
+        found = [words[key]]
+    else:
+        found = list(dict.fromkeys(words[m] for m in difflib.get_close_matches(key, words, n=3)))
+    if not found:
+        return ""
+    return " (did you mean " + " or ".join(repr(f) for f in found) + "?)"
 
 
 def _named(name: str, what: str) -> str:

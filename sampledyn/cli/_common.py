@@ -12,11 +12,12 @@ import sys
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from ..exceptions import UsageError
 
 __all__ = [
+    "Parser",
     "add_format",
     "common_options",
     "floats",
@@ -32,6 +33,18 @@ __all__ = [
     "writable_dir",
     "writable_file",
 ]
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, ``sampledyn: error: ...`` (the
+    format of every other failure), exit status 2, pointing at ``--help`` instead of
+    printing the usage; the subcommands' parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        from ._status import EXIT_USAGE
+
+        text = " ".join(message.split()).removeprefix("argument ")
+        self.exit(EXIT_USAGE, f"sampledyn: error: {text} (`{self.prog} --help` lists the options)\n")
 
 
 def floats(text: str) -> tuple[float, ...]:

@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from typing import Any, NoReturn
 
 from . import _advise, _evaluate, _methods, _reproduce, _sweep
-from ._common import common_options
+from ._common import Parser, common_options
 from ._status import (
     EXIT_HANGUP,
     EXIT_INTERRUPTED,
@@ -45,7 +45,7 @@ def _version() -> str:
 def build_parser() -> argparse.ArgumentParser:
     """The ``sampledyn`` argument parser (every command and option has a help text)."""
     common = common_options()
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="sampledyn",
         parents=[common],
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _checks as checks
-from ._common import floats, ints, names, option, progress, refuse, writable_dir, writable_file
+from ._common import Parser, floats, ints, names, option, progress, refuse, writable_dir, writable_file
 
 __all__ = ["add_parser"]
 
@@ -147,7 +147,7 @@ def _help(option: Any, uses: list[tuple[str, Any]], n_studies: int) -> str:
     return text
 
 
-class _ReproduceParser(argparse.ArgumentParser):
+class _ReproduceParser(Parser):
     """The ``reproduce`` parser; its help ends with each study's defaults (which
     load the studies: only when help is asked for)."""
 

@@ -116,6 +116,8 @@ ARGUMENT_OPTIONS: dict[str, str] = {
     "base_seed": "seed",
     "tol": "newton_tol",  # Tustin's Newton options (evaluate, advise)
     "max_iter": "newton_max_iter",
+    "name_or_path": "vehicle",  # load_vehicle's
+    "method": "methods",  # get_method's
 }
 
 

@@ -24,7 +24,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from ..exceptions import ArgumentError
+from .. import _checks as checks
+from ..exceptions import ArgumentError, SweepConfigError
 from ._studies import StudyDefinition
 
 __all__ = [
@@ -161,13 +162,18 @@ class ROVStudy:
         if vehicle is not None and base_dir is not None and not Path(vehicle).is_absolute():
             vehicle = str(Path(base_dir) / vehicle) if is_model_file(vehicle) else vehicle
         base = load_config(FIG7_STUDY_FILE, vehicle=vehicle)
+        if self.seeds is not None:  # a count, named as it came (not as range(0))
+            checks.count(self.seeds, "seeds", error=SweepConfigError, types=SweepConfigError)
         given: dict[str, Any] = {
             "T": self.T, "after": self.after, "h": self.h, "noise": self.noise_pairs,
             "methods": self.methods, "seeds": None if self.seeds is None else range(self.seeds),
             "base_seed": self.seed, "buoyancy_pct": self.buoyancy_pct,
             "distribution": self.distribution, "rtol": self.rtol,
         }  # fmt: skip
-        config = replace(base, **{k: v for k, v in given.items() if v is not None})
+        given = {k: v for k, v in given.items() if v is not None}
+        # The given values are checked as the caller's (source ""), not as the file's:
+        # the file's own were checked when it was read.
+        config = replace(base, **given, source="") if given else base
         return self._feedback(config)
 
     def _feedback(self, config: Any) -> Any:

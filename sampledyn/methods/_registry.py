@@ -23,6 +23,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from .._checks import did_you_mean
+from ..exceptions import ArgumentError
 from ._base import Method, Predictor
 
 __all__ = [
@@ -85,8 +87,8 @@ class Family:
 
         Raises
         ------
-        ValueError
-            for an order outside 1..max_order.
+        sampledyn.exceptions.ArgumentError
+            (argument ``method``) for an order outside 1..max_order.
         """
         make = self.resolve()
         if not self.ordered:
@@ -94,8 +96,9 @@ class Family:
         assert s is not None
         if s < 1 or (self.max_order is not None and s > self.max_order):
             allowed = ">= 1" if self.max_order is None else f"in 1..{self.max_order}"
-            raise ValueError(
-                f"order `s` of {self.key} must be {allowed}, got {s} ({self.name(s)!r})."
+            raise ArgumentError(
+                "method",
+                f"order `s` of {self.key} must be {allowed}, got {s} ({self.name(s)!r}).",
             )
         return make(s)
 
@@ -226,8 +229,10 @@ def get_method(name: Any) -> Method:
 
     Raises
     ------
-    ValueError
-        for an unknown name (the message lists the valid ones) or a bad order.
+    sampledyn.exceptions.ArgumentError
+        (argument ``method``, a ``ValueError``) for an unknown name (the message
+        suggests the closest names and lists the families, :func:`families`) or a bad
+        order.
     TypeError
         for anything that is neither a name nor a method object.
     """
@@ -243,13 +248,34 @@ def get_method(name: Any) -> Method:
                 return fam.build()
             digits = m.group(1)
             if len(digits) > 9:  # refused as too large, not parsed (int() of 5000 digits)
-                raise ValueError(
+                raise ArgumentError(
+                    "method",
                     f"method {key[:12]}...: the order of {fam.key} has {len(digits)} digits; "
                     "orders are small integers (`sampledyn methods` lists them)."
                 )
             return fam.build(int(digits))
-    valid = ", ".join(f"{f.key} ({f.description})" for f in _FAMILIES.values())
-    raise ValueError(f"unknown method {name!r}; valid names: {valid}.")
+    raise ArgumentError("method", unknown_method(name))
+
+
+def _family_names(fam: Family) -> str:
+    """A family in a short list: "E", "RK1-RK4", "AB<s>" (unbounded orders)."""
+    if fam.ordered and fam.max_order is not None:
+        return f"{fam.name(1)}-{fam.name(fam.max_order)}"
+    return fam.key
+
+
+def unknown_method(name: str) -> str:
+    """The message for an unknown method ``name``: the closest names (case ignored; a
+    single rule also by its description's first words, "Euler" -> E), then the
+    families in one short line."""
+    singles = {f.description.split(" (")[0].split(",")[0].split(":")[0]: f.key
+               for f in _FAMILIES.values() if not f.ordered}  # fmt: skip
+    hint = did_you_mean(name, available_methods(), singles)
+    short = ", ".join(_family_names(f) for f in _FAMILIES.values())
+    return (
+        f"unknown method {name!r}{hint}; the methods are {short} (<s>: the order; "
+        "describe_methods() describes each family)."
+    )
 
 
 def get_predictor(name: Any, argument: str | None = "method") -> Predictor:

@@ -16,9 +16,10 @@ from collections.abc import Mapping
 from typing import Any
 
 from .._named import NamedTable
+from ..exceptions import ArgumentError
 from ._attitude_hold import AttitudeHold
 from ._auv import AUVLike
-from ._vehicle_file import builtin_vehicles, load_vehicle
+from ._vehicle_file import builtin_vehicles, load_vehicle, unknown_vehicle
 
 __all__ = [
     "FEEDBACK_LAWS",
@@ -58,19 +59,22 @@ def model_names() -> dict[str, str]:
     return {**vehicles, **MODELS.describe()}
 
 
-def model_from_name(name: str | os.PathLike[str], buoyancy_pct: float | None = None) -> Any:
+def model_from_name(vehicle: str | os.PathLike[str], buoyancy_pct: float | None = None) -> Any:
     """The model a name stands for: a built-in vehicle, a vehicle file, or an entry of
     :data:`MODELS` (aliases accepted); with its net buoyancy set to ``buoyancy_pct``
     percent of its weight (B = (1 + pct/100) W) if given.
 
     Raises
     ------
+    sampledyn.exceptions.ArgumentError
+        (argument ``vehicle``) for an unknown name (suggesting the closest, listing
+        every built-in one).
     ValueError
-        for an unknown name (listing every built-in one), a bad vehicle file, or a
-        buoyancy for a model without one.
+        for a bad vehicle file, or a buoyancy for a model without one.
     FileNotFoundError
         for a vehicle file that does not exist.
     """
+    name = vehicle
     if is_model_file(name):
         model: Any = load_vehicle(name)
     elif MODELS.canonical(name) is not None:
@@ -78,10 +82,7 @@ def model_from_name(name: str | os.PathLike[str], buoyancy_pct: float | None = N
     elif isinstance(name, str) and name in builtin_vehicles():
         model = load_vehicle(name)
     else:
-        raise ValueError(
-            f"unknown model {name!r}; built-in: {', '.join(model_names())}, or give the path "
-            "of a .toml vehicle file."
-        )
+        raise ArgumentError("vehicle", unknown_vehicle(str(vehicle), MODELS.describe()))
     if buoyancy_pct is None:
         return model
     if not hasattr(model, "with_buoyancy"):

@@ -39,16 +39,18 @@ import math
 import os
 import warnings
 from importlib import resources
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .._checks import did_you_mean
 from .._files import parse_toml, read_text
-from ..exceptions import VehicleParameterError
+from ..exceptions import ArgumentError, VehicleParameterError
 from ._vehicle import QUADRATIC_IS_DIAGONAL, SYMMETRY_RTOL, AsymmetricPair, Vehicle, symmetrized
 
-__all__ = ["builtin_vehicles", "load_vehicle"]
+__all__ = ["builtin_vehicles", "load_vehicle", "unknown_vehicle"]
 
 _L6 = ("kg", "kg", "kg", "kg m^2", "kg m^2", "kg m^2")
 _D6 = ("N s/m",) * 3 + ("N m s/rad",) * 3
@@ -362,6 +364,17 @@ def builtin_vehicles() -> tuple[str, ...]:
     )
 
 
+def unknown_vehicle(name: str, others: Mapping[str, Any] | None = None) -> str:
+    """The message for an unknown vehicle ``name`` (the one place that words it): the
+    closest built-in name (case ignored), the built-in ones, and ``others`` (further
+    built-in model names, e.g. ``auv_like``)."""
+    known = [*builtin_vehicles(), *(others or {})]
+    return (
+        f"unknown vehicle {name!r}{did_you_mean(name, known)}; built-in: {', '.join(known)}, "
+        "or the path of a .toml vehicle file."
+    )
+
+
 def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehicle:
     """Load a vehicle file and build the :class:`Vehicle`.
 
@@ -381,8 +394,9 @@ def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehi
 
     Raises
     ------
-    ValueError
-        For an unknown built-in name or a bad file; the message names the field.
+    sampledyn.exceptions.ArgumentError
+        (a ``ValueError``; argument ``name_or_path``) for an unknown built-in name (the
+        message suggests the closest); a bad file raises a ``ValueError`` naming the field.
     FileNotFoundError
         If a path does not exist.
     """
@@ -396,12 +410,8 @@ def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehi
         where = Path(name_or_path)
         text = read_text(where, "vehicle file")  # regular, bounded, UTF-8 (named)
     elif isinstance(name_or_path, str):
-        names = builtin_vehicles()
-        if name_or_path not in names:
-            raise ValueError(
-                f"unknown built-in vehicle {name_or_path!r}; available: {list(names)}, "
-                "or give the path of a .toml vehicle file."
-            )
+        if name_or_path not in builtin_vehicles():
+            raise ArgumentError("name_or_path", unknown_vehicle(name_or_path))
         res = resources.files("sampledyn.models") / "vehicles" / f"{name_or_path}.toml"
         where = name_or_path
         text = res.read_text(encoding="utf-8")

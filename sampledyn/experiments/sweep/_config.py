@@ -63,8 +63,9 @@ from ..._files import parse_toml, read_text
 from ..._noise import MAX_NOISE_PCT
 from ...exceptions import FileContentError, SweepConfigError
 from ...methods import families
-from ...models import FEEDBACK_LAWS, MODELS, Model
+from ...models import FEEDBACK_LAWS, MODELS, Model, builtin_vehicles
 from ...models._names import is_model_file, model_names
+from ...models._vehicle_file import unknown_vehicle
 from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
@@ -316,7 +317,8 @@ def load_config(path: str | os.PathLike[str], *, vehicle: str | None = None) -> 
     Raises
     ------
     SweepConfigError
-        naming the bad key (unknown keys too), or the TOML syntax error.
+        naming the bad key (unknown keys too), or the TOML syntax error; a bad
+        ``vehicle`` given here is named without the file.
     FileNotFoundError
         if ``path`` does not exist.
     """
@@ -328,6 +330,7 @@ def load_config(path: str | os.PathLike[str], *, vehicle: str | None = None) -> 
     except FileContentError as exc:
         raise SweepConfigError("<file>", str(exc)) from None
     if vehicle is not None:
+        _vehicle_name(vehicle, None, "")  # the caller's value: not blamed on the file
         data["vehicle"] = str(Path(vehicle).resolve()) if is_model_file(vehicle) else vehicle
     return _parse(data, path.resolve().parent, str(path))
 
@@ -454,11 +457,9 @@ def _vehicle_name(vehicle: Any, model: Model | None, src: str) -> str:
         if not Path(vehicle).is_file():
             raise SweepConfigError("vehicle", f"`vehicle`{_where(src)}: no file {vehicle!r}.")
         return str(Path(vehicle).resolve())
-    if MODELS.canonical(vehicle) is None and vehicle not in model_names():
+    if MODELS.canonical(vehicle) is None and vehicle not in builtin_vehicles():
         raise SweepConfigError(
-            "vehicle",
-            f"`vehicle`{_where(src)}: unknown model {vehicle!r}; built-in: "
-            f"{', '.join(model_names())}, or the path of a .toml vehicle file.",
+            "vehicle", f"`vehicle`{_where(src)}: {unknown_vehicle(vehicle, MODELS.describe())}"
         )
     return vehicle
 
