@@ -37,6 +37,7 @@ import numpy as np
 
 from . import _checks as checks
 from ._trajectory import Trajectory, uniform_grid
+from .exceptions import ArgumentError
 
 __all__ = [
     "ERROR_NORMS",
@@ -66,11 +67,27 @@ def local_errors(
     Returns
     -------
     ndarray, shape (N, nx); NaN where the prediction is NaN.
+
+    Raises
+    ------
+    sampledyn.exceptions.ArgumentError
+        (argument ``x_hat``) if the shapes differ.
+    TypeError
+        if ``x_hat`` is a Trajectory (the arguments swapped).
     """
+    if isinstance(x_hat, Trajectory):
+        raise TypeError(
+            "`x_hat` is a Trajectory: the prediction comes first, an array (N, nx) (from "
+            "predict()), then the reference: local_errors(x_hat, reference)."
+        )
     ref = reference.x if isinstance(reference, Trajectory) else np.asarray(reference, dtype=float)
     x_hat = np.asarray(x_hat, dtype=float)
     if x_hat.shape != ref.shape:
-        raise ValueError(f"`x_hat` has shape {x_hat.shape}, the reference {ref.shape}.")
+        raise ArgumentError(
+            "x_hat",
+            f"`x_hat` has shape {x_hat.shape}, the reference {ref.shape}: predict on the "
+            "reference's samples (the same N and nx).",
+        )
     return np.subtract(ref, x_hat, out=out)
 
 
@@ -152,8 +169,9 @@ def error_norms(
     if e.ndim == 1:
         e = e[:, None]
     if e.ndim != 2 or e.shape[0] != t.shape[0]:
-        raise ValueError(
-            f"`errors` must have shape (len(t), nx), got {e.shape} with len(t)={t.shape[0]}."
+        raise ArgumentError(
+            "errors",
+            f"`errors` must have shape (len(t), nx), got {e.shape} with len(t)={t.shape[0]}.",
         )
     _check_kinds(kinds)
     return error_window(t, after, where).norms(e, kinds, components)
@@ -162,7 +180,11 @@ def error_norms(
 def _check_kinds(kinds: tuple[str, ...]) -> None:
     for kind in kinds:
         if kind not in ERROR_NORMS:
-            raise ValueError(f"unknown norm kind {kind!r}; valid: {', '.join(ERROR_NORMS)}.")
+            raise ArgumentError(
+                "kinds",
+                f"unknown norm kind {kind!r}{checks.did_you_mean(str(kind), ERROR_NORMS)}; "
+                f"valid: {', '.join(ERROR_NORMS)}.",
+            )
 
 
 @dataclass(frozen=True)
@@ -195,8 +217,8 @@ class ErrorWindow:
         """:func:`error_norms` of ``errors``, shape (N, nx), on this window's samples
         (samples whose selected components hold NaN are left out, as there)."""
         if errors.shape[0] != self.n_samples:
-            raise ValueError(
-                f"`errors` has {errors.shape[0]} samples, the window {self.n_samples}."
+            raise ArgumentError(
+                "errors", f"`errors` has {errors.shape[0]} samples, the window {self.n_samples}."
             )
         _check_kinds(kinds)
         sq = sum_of_squares(errors[self.rows], components)  # NaN where a component is
@@ -207,12 +229,14 @@ class ErrorWindow:
             span = None if span is None else span[~missing]
         if sq.size == 0:
             if self.after is None:
-                raise ValueError(
-                    f"no sample of the {self.n_samples} has a prediction; lengthen the run."
+                raise ArgumentError(
+                    "errors",
+                    f"no sample of the {self.n_samples} has a prediction; lengthen the run.",
                 )
-            raise ValueError(
+            raise ArgumentError(
+                "after",
                 f"no samples with a prediction at t >= after={self.after}; "
-                "shorten `after` or lengthen the run."
+                "shorten `after` or lengthen the run.",
             )
         w = None if span is None else span / span.mean()
         total = float(sq.sum()) if w is None else float((w * sq).sum())
@@ -247,14 +271,14 @@ def error_window(
         if ``where`` has the wrong shape, or ``after`` is not a finite number.
     """
     if after is not None and not math.isfinite(after):
-        raise ValueError(f"`after` must be a finite time (s) or None, got {after}.")
+        raise ArgumentError("after", f"`after` must be a finite time (s) or None, got {after}.")
     t = np.asarray(t, dtype=float)
     n = t.shape[0]
     keep = None
     if where is not None:
         where = np.asarray(where, dtype=bool)
         if where.shape != (n,):
-            raise ValueError(f"`where` must have shape {(n,)}, got {where.shape}.")
+            raise ArgumentError("where", f"`where` must have shape {(n,)}, got {where.shape}.")
         keep = where.copy()
     if after is not None:
         late = checks.at_or_after(t, after)

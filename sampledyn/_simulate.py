@@ -323,10 +323,14 @@ def _check_model(model: Model, signal: Any, h: float) -> None:
             "`model` must provide a compiled kernel (a sampledyn model), "
             f"got {type(model).__name__}."
         )
-    if getattr(signal, "nu", None) != model.nu:
-        raise ValueError(
-            f"`signal` has nu={getattr(signal, 'nu', None)} channels, "
-            f"the model needs nu={model.nu}."
+    if not isinstance(signal, Signal) and not hasattr(signal, "nu"):
+        raise TypeError(
+            f"`signal` must be an input signal (a sampledyn.signals.Signal with "
+            f"nu={model.nu} channels), got {type(signal).__name__}."
+        )
+    if signal.nu != model.nu:
+        raise ArgumentError(
+            "signal", f"`signal` has nu={signal.nu} channels, the model needs nu={model.nu}."
         )
     signal.check_sampling(float(h))
 

@@ -44,7 +44,9 @@ class Parser(argparse.ArgumentParser):
         from ._status import EXIT_USAGE
 
         text = " ".join(message.split()).removeprefix("argument ")
-        self.exit(EXIT_USAGE, f"sampledyn: error: {text} (`{self.prog} --help` lists the options)\n")
+        self.exit(
+            EXIT_USAGE, f"sampledyn: error: {text} (`{self.prog} --help` lists the options)\n"
+        )
 
 
 def floats(text: str) -> tuple[float, ...]:

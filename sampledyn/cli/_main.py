@@ -111,13 +111,28 @@ def _format_warning(
 
 @contextmanager
 def _one_line_warnings() -> Iterator[None]:
-    """Library warnings print as one line each (not file:line plus source)."""
+    """Library warnings print as one line each (not file:line plus source), and each
+    text once per command (the library may warn of the same rule wherever it builds
+    it: checking a grid, then running it; Python's own once-per-place registry is
+    reset by every ``catch_warnings``)."""
     previous: Callable[..., str] = warnings.formatwarning
+    show: Callable[..., None] = warnings.showwarning
+    shown: set[tuple[type[Warning], str]] = set()
+
+    def show_once(message: Warning | str, category: type[Warning], *rest: Any,
+                  **kw: Any) -> None:  # fmt: skip
+        key = (category, " ".join(str(message).split()))
+        if key not in shown:
+            shown.add(key)
+            show(message, category, *rest, **kw)
+
     warnings.formatwarning = _format_warning
+    warnings.showwarning = show_once
     try:
         yield
     finally:
         warnings.formatwarning = previous
+        warnings.showwarning = show
 
 
 def _quiet_stdout() -> None:

@@ -15,7 +15,17 @@ from pathlib import Path
 from typing import Any
 
 from .. import _checks as checks
-from ._common import Parser, floats, ints, names, option, progress, refuse, writable_dir, writable_file
+from ._common import (
+    Parser,
+    floats,
+    ints,
+    names,
+    option,
+    progress,
+    refuse,
+    writable_dir,
+    writable_file,
+)
 
 __all__ = ["add_parser"]
 
@@ -104,6 +114,11 @@ def _engine(args: argparse.Namespace, default_workers: int | None) -> dict[str, 
         args.on_interrupt = (
             f"the finished cells are in {args.store}; rerun the same command to compute the rest"
         )
+    else:
+        args.on_interrupt = (
+            "without --store the finished cells were not kept and no table or figure was "
+            "written; give --store FILE to keep them (a rerun then computes only the rest)"
+        )
     return out
 
 
@@ -187,7 +202,8 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     )
     engine = (
         "Every study runs on the experiment engine: --store keeps the cells in a results "
-        "store, so a killed run resumes and `sampledyn results`/`report` read it; --workers "
+        "store, so a killed run resumes and `sampledyn results`/`report` read it (without "
+        "--store an interrupted run keeps nothing); --workers "
         "and --scheduler choose where the cells are computed. Writes CSV and PNG into --out "
         "and prints the table. Options a study does not take are refused."
     )

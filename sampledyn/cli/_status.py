@@ -58,15 +58,18 @@ EXIT_STATUSES: dict[int, str] = {
     "vehicle file, or a file that is not a results store (left untouched)",
     EXIT_FILE: "a file or folder cannot be read or written: missing, not permitted, "
     "read-only, a folder where a file is expected or the reverse",
-    EXIT_DISK: "no space left (or an I/O error) while writing; finished results are kept",
+    EXIT_DISK: "no space left (or an I/O error) while writing; "
+    "finished cells in a store (--store) are kept",
     EXIT_UNAVAILABLE: "a worker or service died or does not answer (a killed worker process, "
-    "the Dask scheduler); finished results are kept",
+    "the Dask scheduler); finished cells in a store (--store) are kept",
     EXIT_NUMERICAL: "a numerical method failed on these inputs (Newton did not converge, the "
     "exact integrator missed its tolerance); the message says what to change",
-    EXIT_HANGUP: "hang-up (SIGHUP: the terminal closed); finished results are kept",
-    EXIT_INTERRUPTED: "interrupted by Ctrl-C (SIGINT); finished results are kept",
+    EXIT_HANGUP: "hang-up (SIGHUP: the terminal closed); "
+    "finished cells in a store (--store) are kept",
+    EXIT_INTERRUPTED: "interrupted by Ctrl-C (SIGINT); "
+    "finished cells in a store (--store) are kept",
     EXIT_PIPE: "the reader of the output went away (e.g. `| head`); quiet, as Unix tools",
-    EXIT_TERMINATED: "terminated (SIGTERM); finished results are kept",
+    EXIT_TERMINATED: "terminated (SIGTERM); finished cells in a store (--store) are kept",
 }
 
 

@@ -59,6 +59,10 @@ def fig7_vehicle(vehicle: Any, buoyancy_pct: float = 1.0) -> Any:
     return vehicle.with_buoyancy(buoyancy_pct)
 
 
+#: The rules the Fig. 7 table compares (the paper's columns); others are extra columns.
+FIG7_TABLE_METHODS = ("AB1", "AB4")
+
+
 @dataclass(frozen=True)
 class ROVStudy:
     """Settings of the Fig. 7 study; None keeps the built-in study's value
@@ -76,7 +80,9 @@ class ROVStudy:
     noise_pairs : tuple of (eta %, v %)
         Paper: the 12 pairs of Fig. 7.
     methods : tuple of str
-        Paper: AB1 and AB4; AB2, AB3 and RK4 are extra columns.
+        Paper: AB1 and AB4; AB2, AB3 and RK4 are extra columns. The table compares
+        AB1 with AB4 (the paper's columns), so both must be among them
+        (:data:`FIG7_TABLE_METHODS`).
     seeds : int
         Monte Carlo repetitions per noisy cell (the noise-free cell runs once).
     seed : int
@@ -153,7 +159,8 @@ class ROVStudy:
         Raises
         ------
         SweepConfigError
-            naming a bad setting (a ``ValueError``).
+            naming a bad setting (a ``ValueError``), or ``methods`` without the rules
+            the table compares (:data:`FIG7_TABLE_METHODS`).
         """
         from ..models._names import is_model_file
         from .sweep import load_config
@@ -174,6 +181,14 @@ class ROVStudy:
         # The given values are checked as the caller's (source ""), not as the file's:
         # the file's own were checked when it was read.
         config = replace(base, **given, source="") if given else base
+        missing = [m for m in FIG7_TABLE_METHODS if m not in config.methods]
+        if missing:  # (the names are known: the grid checked them)
+            raise SweepConfigError(
+                "methods",
+                f"`methods` {','.join(config.methods)} lacks {', '.join(missing)}: the Fig. 7 "
+                "table compares AB1 with AB4 (the paper's numbers); add them, e.g. "
+                f"{','.join(dict.fromkeys([*FIG7_TABLE_METHODS, *config.methods]))}.",
+            )
         return self._feedback(config)
 
     def _feedback(self, config: Any) -> Any:

@@ -147,7 +147,7 @@ def frame_of(
         raise LogFormatError(
             "vehicle",
             f"{src}: {where} is {code} ({name}, {factors.shape[0]} motors) but the vehicle "
-            f"has {nu} thrusters; use --vehicle {fits}.",
+            f"has {nu} thrusters; give the vehicle {fits}.",
         )
     return code, name
 

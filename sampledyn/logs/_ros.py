@@ -273,6 +273,20 @@ def _deserialize(reader: Any, raw: bytes, conn: Any, src: str) -> Any:
         ) from None
 
 
+#: A bag's topics listed in full up to this many; beyond, the closest few and the count.
+_TOPICS_SHOWN = 8
+
+
+def _some_topics(topic: str, have: list[str]) -> str:
+    """The bag's topics, for a message: all of a few, else the closest to ``topic``."""
+    if len(have) <= _TOPICS_SHOWN:
+        return f"it has {', '.join(have)}"
+    near = difflib.get_close_matches(topic, have, n=_TOPICS_SHOWN // 2, cutoff=0.0)
+    return (
+        f"it has {len(have)} topics, the closest {', '.join(near)} (`ros2 bag info` lists them all)"
+    )
+
+
 def _collect(
     reader: Any, topics: list[str], src: str
 ) -> dict[str, tuple[str, np.ndarray, list[Any], bool]]:
@@ -285,7 +299,7 @@ def _collect(
                 "mapping",
                 f"{src}: the mapping file names topic {topic!r}"
                 + (f" (did you mean {close[0]!r}?)" if close else "")
-                + f", which the bag does not have; it has {', '.join(have)}.",
+                + f", which the bag does not have; {_some_topics(topic, have)}.",
             )
     conns = [c for c in reader.connections if c.topic in topics]
     out: dict[str, tuple[str, list[int], list[Any], list[bool]]] = {

@@ -251,7 +251,7 @@ def get_method(name: Any) -> Method:
                 raise ArgumentError(
                     "method",
                     f"method {key[:12]}...: the order of {fam.key} has {len(digits)} digits; "
-                    "orders are small integers (`sampledyn methods` lists them)."
+                    "orders are small integers (`sampledyn methods` lists them).",
                 )
             return fam.build(int(digits))
     raise ArgumentError("method", unknown_method(name))

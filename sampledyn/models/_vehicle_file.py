@@ -38,8 +38,8 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from importlib import resources
 from collections.abc import Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any
 

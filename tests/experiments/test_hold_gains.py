@@ -63,7 +63,8 @@ def test_the_rexrov_gains_follow_the_stated_rule():
 
 def test_reproduce_fig7_hold_gains(tmp_path, capsys):
     args = ["reproduce", "fig7", "--vehicle", "rexrov", "--T", "20", "--after", "5",
-            "--seeds", "1", "--h", "0.5", "--methods", "AB1", "--workers", "1", "-q"]  # fmt: skip
+            "--seeds", "1", "--h", "0.5", "--methods", "AB1,AB4", "--workers", "1",
+            "-q"]  # fmt: skip
     assert main([*args, "--attitude-hold", "--out", str(tmp_path / "a")]) == 0
     assert "closed by roll_pitch_hold kp 16000, kd 7200" in capsys.readouterr().out
     # The RexROV's default is open loop: the hold must be switched on.
@@ -134,3 +135,17 @@ def test_bad_feedback_tuning_is_refused(tuning, key, message):
     with pytest.raises(SweepConfigError, match=message) as info:
         _config(feedback_tuning=tuning)
     assert info.value.key == key
+
+
+def test_fig7_refuses_methods_without_ab1_and_ab4():
+    with pytest.raises(SweepConfigError, match=r"`methods` AB2 lacks AB1, AB4") as exc:
+        ROVStudy(methods=("AB2",)).config()
+    assert exc.value.argument == "methods"
+    assert ROVStudy(methods=("AB4", "AB1", "RK4")).config().methods == ("AB4", "AB1", "RK4")
+
+
+def test_fig7_values_given_are_not_named_as_the_study_files():
+    for settings in ({"h": (-0.1,)}, {"vehicle": "bluerov_heavy"}, {"seeds": 0}):
+        with pytest.raises(SweepConfigError) as exc:
+            ROVStudy(**settings).config()
+        assert "fig7.toml" not in str(exc.value), str(exc.value)

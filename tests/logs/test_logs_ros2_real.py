@@ -188,3 +188,13 @@ def test_the_commanded_wrench_as_input_from_a_mapping_file(tmp_path, capsys):
     rows = {r["method"]: r for r in doc["rows"]}
     # exact samples: RK4's local error is its truncation, O(h^5), far below Euler's O(h^2)
     assert rows["RK4"]["err_all"] < 1e-3 * rows["E"]["err_all"]
+
+
+def test_a_missing_topic_lists_the_closest_few_of_many():
+    from sampledyn.logs._ros import _some_topics
+
+    many = [f"/mavros/topic_{i:03d}" for i in range(130)] + ["/mavros/local_position/pose"]
+    text = _some_topics("/mavros/local_position/poses", many)
+    assert text.startswith("it has 131 topics, the closest /mavros/local_position/pose, ")
+    assert text.count("/mavros/") == 4
+    assert _some_topics("/a", ["/b", "/c"]) == "it has /b, /c"
