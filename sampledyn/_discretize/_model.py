@@ -217,27 +217,30 @@ def rollout_f(t, x, u, p, h, k, out):
 """
 
 
-def _rule(method: str | Method) -> Any:
-    """The rule object, or a ValueError saying why it is not a discrete-time system."""
+def _rule(method: str | Method, argument: str | None = "method") -> Any:
+    """The rule object, or a ValueError saying why it is not a discrete-time system,
+    naming ``argument`` (``None``: the caller names it)."""
     rule: Any = get_method(method)
     if isinstance(rule, DiscreteTimeSystem):
         return rule
+    where = "" if argument is None else f"`{argument}` "
     if isinstance(rule, Estimator):
         raise ValueError(
-            f"`method` {rule.name!r} estimates the model's parameters on the data it "
+            f"{where}{rule.name!r} estimates the model's parameters on the data it "
             "predicts, so it has no fixed map z+ = F(z, u) to discretize. Estimate "
             "first (sampledyn.estimate), then discretize the fitted model with the "
             "fixed rule, e.g. discretize(result.model, 'AB4', h)."
         )
     why = getattr(rule, "no_discrete_step", "it does not state its step z+ = F(z, u)")
-    raise ValueError(f"`method` {rule.name!r} cannot be discretized: {why}.")
+    raise ValueError(f"{where}{rule.name!r} cannot be discretized: {why}.")
 
 
-def check_rule(method: str | Method) -> None:
+def check_rule(method: str | Method, argument: str | None = "method") -> None:
     """Raise a ValueError saying why ``method`` (a registry name or rule object) is not
-    a discrete-time system z+ = F(z, u) (the estimated rules, ABj_s); pass otherwise.
-    For studies that design on each rule, before any work."""
-    _rule(method)
+    a discrete-time system z+ = F(z, u) (the estimated rules, ABj_s), naming
+    ``argument`` (``None``: the caller names it, as a grid's check of `methods`
+    does); pass otherwise. For studies that design on each rule, before any work."""
+    _rule(method, argument)
 
 
 def _module(model: Model, step: Any) -> tuple[Any, Any]:

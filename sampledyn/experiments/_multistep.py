@@ -119,7 +119,7 @@ class MultistepCells(PredictionCells):
     columns = (("err_eta", float), ("err_v", float), ("k", int), ("diverged", bool))
 
     def check_method(self, name: str) -> None:
-        check_rule(name)
+        check_rule(name, None)  # the grid's check names `methods`
 
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         K = options.get("horizon", 20)

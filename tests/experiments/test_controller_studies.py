@@ -174,6 +174,25 @@ def test_closed_loop_sweep_files_are_checked(tmp_path, extra, key, message):
     assert info.value.key == key
 
 
+@pytest.mark.parametrize("kind", ["closed_loop", "multistep"])
+@pytest.mark.parametrize(
+    "rule, reason", [("ABj4", "'ABj4' cannot be discretized"), ("Ee", "'Ee' estimates")]
+)
+def test_a_rule_without_a_discrete_step_is_named_once(tmp_path, kind, rule, reason):
+    """The grid's check names `methods`; check_rule's message adds no `method` of its
+    own (it did: "`methods`: `method` 'ABj4' cannot be discretized ...")."""
+    f = tmp_path / "s.toml"
+    body = f'kind = "{kind}"\nvehicle = "rexrov"\nT = 20.0\nafter = 5.0\nh = [0.5]\n'
+    body += 'input = "fig6"\n' if kind == "multistep" else ""
+    f.write_text(body + f'methods = ["E", "{rule}"]\n')
+    with pytest.raises(SweepConfigError) as info:
+        load_config(f)
+    assert info.value.key == "methods"
+    message = str(info.value)
+    assert reason in message
+    assert message.count("`methods`") == 1 and "`method`" not in message
+
+
 def test_unknown_kind_and_multistep_horizon_are_refused(tmp_path):
     f = tmp_path / "s.toml"
     f.write_text('kind = "open_loop"\nvehicle = "rexrov"\nT = 1.0\nafter = 0.0\nh = 0.5\n')
