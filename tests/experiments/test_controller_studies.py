@@ -207,6 +207,37 @@ def test_unknown_kind_and_multistep_horizon_are_refused(tmp_path):
     assert info.value.key == "horizon"
 
 
+def test_a_multistep_window_before_every_prediction_is_refused(tmp_path):
+    """The k-step prediction of sample n starts from the data at n - k and the rule's
+    history: with K = 3 and AB2 (2 samples) the first is sample 4, t = 2 s at h = 0.5.
+    A window from 1 s had rows without a prediction (NaN), which the table showed as
+    `diverged` for every rule at large k (ZOH too, whose free run was finite); it is
+    refused when planned, naming `after` and the least value."""
+    f = tmp_path / "ms.toml"
+    body = (
+        'kind = "multistep"\nvehicle = "rexrov"\ninput = "fig6"\nT = 4.0\nh = [0.5]\n'
+        'methods = ["ZOH", "AB2"]\nhorizon = 3\nseeds = 1\n'
+    )
+    f.write_text(body + "after = 1.0\n")
+    with pytest.raises(SweepConfigError, match=r"`after` >= 2 s") as info:
+        plan_study(load_config(f))
+    assert info.value.key == "after" and "AB2's 2 sample(s) of history" in str(info.value)
+    f.write_text(body + "after = 2.0\n")
+    assert plan_study(load_config(f)).n_cells == 2 * 4
+
+
+def test_zoh_multistep_rows_are_finite_from_the_first_allowed_window():
+    """At the least `after` (K samples in, ZOH keeps one) every horizon and the free run
+    of the exact hold are measured and finite: nothing shows as diverged."""
+    study = MultistepStudy(
+        methods=("ZOH",), h=(0.5,), T=4.0, after=1.5, K=3, seeds=1, noise_pairs=((0, 0),)
+    )
+    rows = run_multistep_study(study)
+    assert sorted(r["k"] for r in rows) == [0, 1, 2, 3]
+    assert not any(r["diverged"] for r in rows)
+    assert all(0 < r["pos_rms"] < 1 and 0 < r["vel_rms"] < 1 for r in rows)
+
+
 def test_multistep_study_shares_one_simulation_per_h(monkeypatch):
     """The exact samples are simulated once per h (not per rule, noise pair or seed),
     each h on its own (no subsampling: the numbers of the study's own loop)."""
