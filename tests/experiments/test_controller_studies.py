@@ -2,10 +2,11 @@
 ``reproduce multistep`` plan their cells with the engine's planner, compute them on its
 backends and keep them in its store.
 
-The fixtures ``tests/experiments/data/closed_loop_pre_engine.csv`` and
-``multistep_pre_engine.csv`` were written by the code before the studies moved onto
-the engine (commit 04f6bc2, the studies' own loops; on another machine), with the
-options of ``_CL`` and ``_MS``; the engine must give the same rows in this process and
+The fixture ``tests/experiments/data/closed_loop_pre_engine.csv`` was written by the
+code before the studies moved onto the engine (commit 04f6bc2, the studies' own loops;
+on another machine), ``multistep_pre_engine.csv`` by the engine at commit 23862da when
+the multistep window was moved to where every k-step prediction exists (see ``_MS``),
+with the options of ``_CL`` and ``_MS``; the engine must give the same rows in this process and
 on local workers, and after a run was killed and resumed: names and flags exactly,
 numbers to the tolerances below (another CPU rounds LAPACK, libm and numba's code
 differently). Within one run on one machine (in-process against workers, resumed
