@@ -20,5 +20,5 @@ def test_order_below_one(s):
 
 def test_unknown_method_lists_valid(model):
     traj = sd.simulate(model, sd.signals.Multilevel(hold=0.1), T=1.0, h=0.1)
-    with pytest.raises(ValueError, match="valid names: E"):
+    with pytest.raises(ValueError, match="the methods are E, AB<s>"):
         sd.predict("Heun", model, traj)
