@@ -99,7 +99,7 @@ def test_the_heavy_refuses_a_six_thruster_log_naming_the_vehicle(tmp_path):
     log = BenchRun().write(tmp_path / "bench.BIN")
     heavy = sd.models.load_vehicle("bluerov2_heavy")
     with pytest.raises(
-        LogFormatError, match=r"FRAME_CONFIG is 1 \(vectored, 6 motors\).*--vehicle bluerov2"
+        LogFormatError, match=r"FRAME_CONFIG is 1 \(vectored, 6 motors\).*give the vehicle bluerov2"
     ):
         read_log(log, heavy, mapping=DATAFLASH)
 
