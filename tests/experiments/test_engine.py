@@ -80,7 +80,7 @@ def test_reproduce_fig7_and_the_sweep_file_agree_bit_for_bit(tmp_path, capsys):
     printed = capsys.readouterr().out
     n_norms = len(load_config(EXAMPLE).norms)
     total = 2 * (1 + 11 * 2) * 5 * n_norms  # h x (noise-free + 11 pairs x 2 seeds) x ...
-    assert "rexrov, open loop" in printed and f"{total} computed" in printed
+    assert "rexrov: open loop" in printed and f"{total} computed" in printed
     short = tmp_path / "sweep_fig7.toml"
     short.write_text(_shorten(EXAMPLE.read_text(), SHORT))
     assert main(["sweep", str(short), "--store", str(b), "--workers", "2"]) == 0
