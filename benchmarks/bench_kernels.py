@@ -173,10 +173,11 @@ def copies_only(x, u):  # pragma: no cover - compiled
     return out
 
 
-def fig7_model() -> Any:
+def fig7_model(name: str = "rexrov") -> Any:
+    """The Fig. 7 model (the RexROV, +1 % buoyancy), or another built-in vehicle so."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the RexROV file's added-mass symmetry note
-        return sd.models.load_vehicle("rexrov").with_buoyancy(1.0)
+        return sd.models.load_vehicle(name).with_buoyancy(1.0)
 
 
 def random_states(v: Any, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -208,9 +209,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--n", type=int, default=50_001, help="states in the batch")
     ap.add_argument("--rounds", type=int, default=9, help="interleaved rounds")
+    ap.add_argument("--vehicle", default="rexrov", help="built-in vehicle (rows: the RexROV)")
     ap.add_argument("--json", help="write the table rows here")
     args = ap.parse_args()
-    v = fig7_model()
+    v = fig7_model(args.vehicle)
     t, x, u = random_states(v, args.n)
     ref = reference_kernel(v)
     out = np.empty_like(x)
@@ -252,7 +254,7 @@ def main() -> None:
     r_f = per["model.f"] / per["reference"]
     r_ptr = per["function pointer"] / per["reference"]
     r_rk = per["RK4"] / per["reference"]
-    where = f"RexROV, {n} states; reference {per['reference']:.0f} ns"
+    where = f"{args.vehicle}, {n} states; reference {per['reference']:.0f} ns"
     rows = [
         row("`model.f` on the RexROV (50,001 states) / straight-line reference kernel, same run",
             r_f, f"{r_f:.2f}x ({per['model.f']:.0f} / {per['reference']:.0f} ns)", "<= 1.3x",

@@ -30,7 +30,7 @@ the source.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 __all__ = ["Structure", "vehicle_source"]
@@ -207,12 +207,11 @@ def _alloc(s: Structure, i: int, k: int) -> Ex:
 
 
 def dense(mask: Iterable[Iterable[bool]]) -> bool:
-    """At least two thirds of the entries are non-zero: the product is then written as a
-    loop of six (which LLVM unrolls into the same straight line, a zero costing one
-    multiplication) instead of term by term (which costs numba about a millisecond of
-    compilation per operation)."""
+    """No entry is zero: the product is then written as a loop of six, which LLVM
+    unrolls into the same straight line, since numba compiles the term-by-term text
+    (about a millisecond per operation) more slowly than the loop."""
     flat = [bool(b) for row in mask for b in row]
-    return bool(flat) and 3 * sum(flat) >= 2 * len(flat)
+    return bool(flat) and all(flat)
 
 
 # ------------------------------------------------------------------ shared pieces
@@ -308,14 +307,59 @@ def _damping(s: Structure, k: int) -> Ex:
     return total([quad, *(mul(_entry(s, "DL", s.damping, k, j), V[j]) for j in range(6))])
 
 
-def _rpm(s: Structure, i: int) -> str:
+Column = Callable[[int], Ex]  # k -> B[k, i] of the thruster in hand (None: a zero)
+
+
+@dataclass(frozen=True)
+class _Run:
+    """Thrusters start..stop-1, neighbours whose columns of B have the same zeros."""
+
+    start: int
+    stop: int
+    pattern: tuple[bool, ...]
+
+
+def _runs(s: Structure) -> list[_Run]:
+    """The thrusters in order, grouped into runs of one zero pattern (e.g. the
+    horizontal and the vertical thrusters of a vectored frame)."""
+    runs: list[_Run] = []
+    for i, pattern in enumerate(s.allocation):
+        if runs and runs[-1].pattern == pattern and runs[-1].stop == i:
+            runs[-1] = _Run(runs[-1].start, i + 1, pattern)
+        else:
+            runs.append(_Run(i, i + 1, tuple(pattern)))
+    return runs
+
+
+def _each_thruster(w: _Writer, s: Structure, run: _Run, indent: str) -> tuple[str, Column, str]:
+    """Open the code of one run: a loop over its thrusters (more than one), or none.
+
+    Returns the thruster index (source text), B[k, i] as a function of k (None for a
+    zero of the run's pattern) and the indent of the body."""
+    if run.stop - run.start == 1:
+        i = run.start
+        return str(i), (lambda k: _alloc(s, i, k)), indent
+    w.raw(f"{indent}for i in range({run.start}, {run.stop}):")
+    w.raw(f"{indent}    o = {s.offsets[OFFSET_NAMES.index('ALLOC')]} + 6 * i")
+    return "i", (lambda k: name(f"p[o + {k}]") if run.pattern[k] else None), indent + "    "
+
+
+def _shift(base: int, i: str) -> str:
+    """``base + i`` as source (folded for a literal thruster index)."""
+    return str(base + int(i)) if i.isdigit() else f"{base} + {i}"
+
+
+def _rpm(s: Structure, i: str) -> str:
     """The applied rpm of thruster i: the lag state, or the saturated input."""
-    return f"x[{12 + i}]" if s.lag else f"_saturate(u[{i}], {s.slot('NMAX')})"
+    return f"x[{_shift(12, i)}]" if s.lag else f"_saturate(u[{i}], {s.slot('NMAX')})"
 
 
-def _inflow(w: _Writer, s: Structure, i: int) -> Ex:
-    """v_a,i = B[:, i] . v."""
-    return w.let(f"va{i}", total(mul(_alloc(s, i, k), V[k]) for k in range(6)))
+def _inflow(w: _Writer, s: Structure, col: Column, indent: str) -> Ex:
+    """v_a,i = B[:, i] . v (None without the inflow term, K2 = 0)."""
+    if not s.k2:
+        return None
+    w.raw(f"{indent}va = {text(total(mul(col(k), V[k]) for k in range(6)))}")
+    return name("va")
 
 
 def _minv_times(w: _Writer, s: Structure, r: Sequence[Ex]) -> None:
@@ -377,61 +421,33 @@ def _rhs(s: Structure) -> list[str]:
         if s.wrench:
             e = add(e, name(f"u[{k}]"))
         r.append(e)
-    if s.n_thrusters and dense(s.allocation):
+    if s.n_thrusters:
         for k in range(6):
             w.put(f"r{k}", r[k])
-        _thrust_loop(w, s)
-        _minv_times(w, s, [name(f"r{k}") for k in range(6)])
-    else:
-        _thrust(w, s, r)
-        _minv_times(w, s, [w.let(f"r{k}", r[k]) for k in range(6)])
-    for i in range(s.n_thrusters if s.lag else 0):
-        w.raw(f"out[{12 + i}] = (_saturate(u[{i}], {s.slot('NMAX')}) - x[{12 + i}]) * "
+        _thrust(w, s)
+        r = [name(f"r{k}") for k in range(6)]
+    _minv_times(w, s, [w.let(f"r{k}", r[k]) for k in range(6)])
+    if s.lag:
+        w.raw(f"for i in range({s.n_thrusters}):")
+        w.raw(f"    out[12 + i] = (_saturate(u[i], {s.slot('NMAX')}) - x[12 + i]) * "
               f"{s.slot('INVTN')}")  # fmt: skip
     return w.lines
 
 
-def _rpm_at(s: Structure, index: str) -> str:
-    """The applied rpm of thruster ``index`` (an expression) in a loop."""
-    return f"x[12 + {index}]" if s.lag else f"_saturate(u[{index}], {s.slot('NMAX')})"
-
-
-def _column_loop_head(w: _Writer, s: Structure, indent: str = "    ") -> list[Ex]:
-    """``o`` = where thruster i's column of B starts in p; its entries as names."""
-    w.raw(f"{indent}o = {s.offsets[OFFSET_NAMES.index('ALLOC')]} + 6 * i")
-    return [name(f"p[o + {k}]" if k else "p[o]") for k in range(6)]
-
-
-def _thrust_loop(w: _Writer, s: Structure) -> None:
-    """r += B T as a loop over the thrusters (a dense allocation), in thruster order."""
-    w.raw(f"for i in range({s.n_thrusters}):")
-    col = _column_loop_head(w, s)
-    w.raw(f"    n = {_rpm_at(s, 'i')}")
-    w.raw("    an = abs(n)")
-    k1 = name(s.slot("K1")) if s.k1 else None
-    k2 = name(s.slot("K2")) if s.k2 else None
-    va = None
-    if s.k2:
-        w.raw(f"    va = {text(total(mul(col[k], V[k]) for k in range(6)))}")
-        va = name("va")
-    thrust = sub(mul(mul(k1, name("n")), name("an")), mul(mul(k2, va), name("an")))
-    w.raw(f"    T = {text(thrust)}")
-    for k in range(6):
-        w.raw(f"    r{k} += {text(col[k])} * T")
-
-
-def _thrust(w: _Writer, s: Structure, r: list[Ex]) -> None:
+def _thrust(w: _Writer, s: Structure) -> None:
     """r += B T, T_i = K1 n_i |n_i| - K2 v_a,i |n_i|, eq. (7), thruster by thruster."""
     k1 = name(s.slot("K1")) if s.k1 else None
     k2 = name(s.slot("K2")) if s.k2 else None
-    for i in range(s.n_thrusters):
-        w.raw(f"n{i} = {_rpm(s, i)}")
-        w.raw(f"an{i} = abs(n{i})")
-        n, an = name(f"n{i}"), name(f"an{i}")
-        va = _inflow(w, s, i) if s.k2 else None
-        thrust = w.let(f"T{i}", sub(mul(mul(k1, n), an), mul(mul(k2, va), an)))
+    n, an = name("n"), name("an")
+    for run in _runs(s):
+        i, col, ind = _each_thruster(w, s, run, "")
+        w.raw(f"{ind}n = {_rpm(s, i)}")
+        w.raw(f"{ind}an = abs(n)")
+        va = _inflow(w, s, col, ind)
+        w.raw(f"{ind}T = {text(sub(mul(mul(k1, n), an), mul(mul(k2, va), an)))}")
         for k in range(6):
-            r[k] = add(r[k], mul(_alloc(s, i, k), thrust))
+            if col(k) is not None:
+                w.raw(f"{ind}r{k} += {text(col(k))} * T")
 
 
 # ------------------------------------------------------------------------ df / dx
@@ -451,14 +467,14 @@ def _jac(s: Structure) -> list[str]:
     _jac_kinematics(w, c, wv)
     _jac_restoring(w, s, c)
     ab = _mass_times_v(w, s)
-    looped = s.n_thrusters > 0 and dense(s.allocation)
-    k2n: list[Ex] = [None] * s.n_thrusters if looped else _jac_thruster_factors(w, s)
     for j in range(6):
-        _jac_velocity_column(w, s, ab, k2n, j)
-    if looped and s.k2:
-        _jac_inflow_loop(w, s)
-    if s.lag:
-        _lag_columns(w, s, looped)
+        _jac_velocity_column(w, s, ab, j)
+    for run in _runs(s) if s.k2 else ():
+        _jac_inflow(w, s, run)
+    for run in _runs(s) if s.lag else ():
+        i, col, ind = _each_thruster(w, s, run, "")
+        _thrust_slope(w, s, col, ind, f"x[{_shift(12, i)}]", _shift(12, i))
+        w.raw(f"{ind}out[{_shift(12, i)}, {_shift(12, i)}] = -{s.slot('INVTN')}")
     _minv_in_place(w, s, 3, "NX")
     return w.lines
 
@@ -523,57 +539,32 @@ def _jac_restoring(w: _Writer, s: Structure, c: dict[str, _E]) -> None:
                 w.put(f"out[{6 + j}, {col}]", e)
 
 
-def _jac_inflow_loop(w: _Writer, s: Structure) -> None:
-    """d tau / dv = -K2 B diag(|n|) B^T, eq. (16), added to the v rows thruster by
-    thruster (a dense allocation)."""
-    w.raw(f"for i in range({s.n_thrusters}):")
-    col = _column_loop_head(w, s)
-    w.raw(f"    kn = -{s.slot('K2')} * abs({_rpm_at(s, 'i')})")
-    w.raw("    for j in range(6):")
-    w.raw("        sj = kn * p[o + j]")
-    for k in range(6):
-        w.raw(f"        out[{6 + k}, 6 + j] += {text(col[k])} * sj")
+def _jac_inflow(w: _Writer, s: Structure, run: _Run) -> None:
+    """d tau / dv = -K2 B diag(|n|) B^T, eq. (16), added to the v rows."""
+    i, col, ind = _each_thruster(w, s, run, "")
+    w.raw(f"{ind}kn = -{s.slot('K2')} * abs({_rpm(s, i)})")
+    for j in range(6):
+        if col(j) is None:
+            continue
+        w.raw(f"{ind}sj = kn * {text(col(j))}")
+        for k in range(6):
+            if col(k) is not None:
+                w.raw(f"{ind}out[{6 + k}, {6 + j}] += {text(col(k))} * sj")
 
 
-def _lag_columns(w: _Writer, s: Structure, looped: bool) -> None:
-    """d f_v / d n = M^-1 B diag(dT/dn) and the lag rows -1/T_n, eq. (3)."""
-    if not looped:
-        for i in range(s.n_thrusters):
-            _thrust_slope_column(w, s, i, f"x[{12 + i}]", 12 + i)
-            w.raw(f"out[{12 + i}, {12 + i}] = -{s.slot('INVTN')}")
-        return
-    w.raw(f"for i in range({s.n_thrusters}):")
-    _slope_loop_body(w, s, "x[12 + i]", "12 + i", "    ")
-    w.raw(f"    out[12 + i, 12 + i] = -{s.slot('INVTN')}")
-
-
-def _slope_loop_body(w: _Writer, s: Structure, rpm: str, col: str, indent: str) -> None:
-    """out[6:12, col] = B[:, i] dT_i/dn (M^-1 applied later) inside a thruster loop."""
-    cols = _column_loop_head(w, s, indent)
-    w.raw(f"{indent}m = {rpm}")
-    w.raw(f"{indent}sg = 1.0 if m > 0 else (-1.0 if m < 0 else 0.0)")
+def _thrust_slope(w: _Writer, s: Structure, col: Column, ind: str, rpm: str, column: str) -> None:
+    """out[6:12, column] = B[:, i] dT_i/dn, dT/dn = 2 K1 |n| - K2 v_a sign(n) (M^-1
+    applied later)."""
+    w.raw(f"{ind}m = {rpm}")
+    w.raw(f"{ind}sg = 1.0 if m > 0 else (-1.0 if m < 0 else 0.0)")
     k1 = name(s.slot("K1")) if s.k1 else None
     k2 = name(s.slot("K2")) if s.k2 else None
-    va = None
-    if s.k2:
-        w.raw(f"{indent}va = {text(total(mul(cols[k], V[k]) for k in range(6)))}")
-        va = name("va")
+    va = _inflow(w, s, col, ind)
     slope = sub(mul(mul(name("2.0"), k1), name("abs(m)")), mul(mul(k2, va), name("sg")))
-    w.raw(f"{indent}sl = {text(slope)}")
+    w.raw(f"{ind}sl = {text(slope)}")
     for k in range(6):
-        w.raw(f"{indent}out[{6 + k}, {col}] = {text(cols[k])} * sl")
-
-
-def _jac_thruster_factors(w: _Writer, s: Structure) -> list[Ex]:
-    """-K2 |n_i| per thruster, the factor of d tau / dv = -K2 B diag(|n|) B^T, eq. (16)."""
-    out: list[Ex] = []
-    for i in range(s.n_thrusters):
-        if not s.k2:
-            out.append(None)
-            continue
-        w.raw(f"n{i} = {_rpm(s, i)}")
-        out.append(w.let(f"kn{i}", mul(neg(name(s.slot("K2"))), name(f"abs(n{i})"))))
-    return out
+        if col(k) is not None:
+            w.raw(f"{ind}out[{6 + k}, {column}] = {text(col(k))} * sl")
 
 
 # The derivative of C(v) v through the explicit v_lin / w factors (e_j x a, e_j x b):
@@ -588,7 +579,7 @@ _EXTRA = {
 }
 
 
-def _jac_velocity_column(w: _Writer, s: Structure, ab: list[Ex], k2n: list[Ex], j: int) -> None:
+def _jac_velocity_column(w: _Writer, s: Structure, ab: list[Ex], j: int) -> None:
     """Column j of d f_v / d v = -M^-1 (d(C v)/dv + D_l + diag(2 d_q |v|) + K2 B
     diag(|n|) B^T), eqs. (13) and (16)."""
     m = [_entry(s, "M", s.mass, r, j) for r in range(6)]
@@ -599,10 +590,6 @@ def _jac_velocity_column(w: _Writer, s: Structure, ab: list[Ex], k2n: list[Ex], 
     col = [sub(neg(d[k]), _entry(s, "DL", s.damping, k, j)) for k in range(6)]
     dq = _vec(s, "DQ", s.quadratic, j)
     col[j] = sub(col[j], mul(mul(name("2.0"), dq), name(f"abs({V[j].text})")))
-    for i in range(s.n_thrusters):
-        f = w.let(f"s{j}_{i}", mul(k2n[i], _alloc(s, i, j)))
-        for k in range(6):
-            col[k] = add(col[k], mul(_alloc(s, i, k), f))
     for k in range(6):
         if col[k] is not None:
             w.put(f"out[{6 + k}, {6 + j}]", col[k])
@@ -620,22 +607,6 @@ def _coriolis_column(m: Sequence[Ex]) -> list[Ex]:
         sub(add(sub(mul(vw, m0), mul(vu, m2)), mul(vr, n0)), mul(vp, n2)),
         sub(add(sub(mul(vu, m1), mul(vv, m0)), mul(vp, n1)), mul(vq, n0)),
     ]
-
-
-def _thrust_slope_column(w: _Writer, s: Structure, i: int, rpm: str, col: int) -> None:
-    """out[6:12, col] = M^-1 B[:, i] dT_i/dn, dT/dn = 2 K1 |n| - K2 v_a sign(n)."""
-    w.raw(f"m{col} = {rpm}")
-    w.raw(f"sg{col} = 1.0 if m{col} > 0 else (-1.0 if m{col} < 0 else 0.0)")
-    k1 = name(s.slot("K1")) if s.k1 else None
-    k2 = name(s.slot("K2")) if s.k2 else None
-    va = _inflow(w, s, i) if s.k2 else None
-    slope = sub(mul(mul(name("2.0"), k1), name(f"abs(m{col})")),
-                mul(mul(k2, va), name(f"sg{col}")))  # fmt: skip
-    sl = w.let(f"sl{col}", slope)
-    for k in range(6):
-        e = mul(_alloc(s, i, k), sl)
-        if e is not None:
-            w.put(f"out[{6 + k}, {col}]", e)
 
 
 # ------------------------------------------------------------------------ df / du
@@ -658,16 +629,10 @@ def _jac_u(s: Structure) -> list[str]:
             w.raw(f"    out[{12 + i}, {i}] = {s.slot('INVTN')}")
         return w.lines
     w.lines += _VELOCITIES
-    if dense(s.allocation):
-        w.raw(f"for i in range({s.n_thrusters}):")
-        w.raw(f"    if abs(u[i]) <= {s.slot('NMAX')}:")
-        _slope_loop_body(w, s, "u[i]", "i", "        ")
-    else:
-        for i in range(s.n_thrusters):
-            inner = _Writer()
-            _thrust_slope_column(inner, s, i, f"u[{i}]", i)
-            w.raw(f"if abs(u[{i}]) <= {s.slot('NMAX')}:")
-            w.lines += ["    " + line for line in inner.lines]
+    for run in _runs(s):
+        ti, col, ind = _each_thruster(w, s, run, "")
+        w.raw(f"{ind}if abs(u[{ti}]) <= {s.slot('NMAX')}:")
+        _thrust_slope(w, s, col, ind + "    ", f"u[{ti}]", ti)
     _minv_in_place(w, s, 0, "NU")
     return w.lines
 
