@@ -29,7 +29,14 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from . import _codegen
-from ._base import RHS_SIG, CompiledModel, JacobianUnavailableError, LinearForm, _as_batch
+from ._base import (
+    RHS_SIG,
+    CompiledModel,
+    JacobianUnavailableError,
+    LinearForm,
+    _as_batch,
+    _compiled,
+)
 
 __all__ = ["ClosedLoop", "FeedbackLaw", "LinearFeedback", "stack_buffer"]
 
@@ -66,7 +73,7 @@ def stack_buffer(typingctx: Any, size: Any) -> Any:
     return retty(size), codegen
 
 
-@njit(RHS_SIG, cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")  # compiled for RHS_SIG on first use (kernel())
 def linear_feedback(t, x, r, q, out):  # pragma: no cover - compiled
     """u = r + K x with K stored by its non-zero columns: q = [m, j_1..j_m, K[:, j]
     row-major (nu x m)]. Terms are added in increasing column order."""
@@ -149,7 +156,7 @@ class LinearFeedback(FeedbackLaw):
         self._eye.setflags(write=False)
 
     def kernel(self) -> tuple[Any, np.ndarray]:
-        return linear_feedback, self._q
+        return _compiled(linear_feedback, RHS_SIG), self._q
 
     def state_jacobian(self, t: Any, x: Any, r: Any) -> np.ndarray:
         """K for every state, shape (N, nu, nx) (read-only: K is constant)."""
