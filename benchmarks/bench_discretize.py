@@ -109,7 +109,7 @@ def main() -> None:
         summarize_closed_loop(rows)
         print(
             f"LQR closed-loop study: {len(rows)} runs ({len(study.vehicles)} vehicles, "
-            f"{len(study.methods)} designs, h {study.h_values}, {len(study.noise_pairs)} noise "
+            f"{len(study.methods)} designs, h {study.h}, {len(study.noise_pairs)} noise "
             f"pairs, {study.seeds} seeds, {study.T:g} s each) in {wall:.1f} s (target < 180 s)"
         )
     if args.mpc:

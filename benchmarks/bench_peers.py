@@ -59,7 +59,18 @@ from scipy.integrate import solve_ivp
 
 import sampledyn as sd
 from sampledyn.experiments import fig7_vehicle
-from sampledyn.simulate import _input_at, switching
+from sampledyn.simulate import switching
+
+
+@nb.njit
+def _input_at(hold_row, offset, amp, freq, phase, t, out):  # pragma: no cover - compiled
+    """u(t) as the simulator forms it: held part, offset and sinusoids."""
+    for j in range(out.shape[0]):
+        v = hold_row[j] + offset[j]
+        for k in range(amp.shape[1]):
+            v += amp[j, k] * math.sin(2.0 * math.pi * freq[j, k] * t + phase[j, k])
+        out[j] = v
+
 
 H = 0.1
 OURS_TOL = 1e-11  # the Fig. 7 setting of `reproduce fig7`

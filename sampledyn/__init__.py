@@ -87,10 +87,6 @@ def __getattr__(name: str) -> Any:
     if name not in _EXPORTS:
         raise AttributeError(f"module 'sampledyn' has no attribute {name!r}")
     source = _EXPORTS[name]
-    if name == "methods" or source == ".methods":
-        # The estimation layer registers its rules (Ee, ABe<s>) into the method
-        # registry; whoever reaches the registry through the package sees them.
-        importlib.import_module(".estimate", __name__)
     if source is None:
         value: Any = importlib.import_module(f".{name}", __name__)
     else:

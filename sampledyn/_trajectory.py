@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Certificate", "Trajectory", "steps_on_grid", "uniform_grid"]
+__all__ = ["Certificate", "SlidingInterval", "Trajectory", "steps_on_grid", "uniform_grid"]
 
 
 class NumericalError(RuntimeError):
@@ -58,6 +59,17 @@ def uniform_grid(t: np.ndarray, h: float) -> bool:
     """
     t = np.asarray(t, dtype=float)
     return bool(t.size < 2 or steps_on_grid(t, h).all())
+
+
+class SlidingInterval(NamedTuple):
+    """A time interval in which the state slid on a switching surface (Filippov's
+    sliding motion, where f jumps across the surface and both sides push the state
+    onto it): the surface ``surface = 0`` (its switching function as text), from
+    ``start`` to ``end`` (s)."""
+
+    surface: str
+    start: float
+    end: float
 
 
 @dataclass(frozen=True)
@@ -136,6 +148,12 @@ class Trajectory:
         Absolute time of the first sample (t = 0) as logged, e.g.
         ``"2024-05-02T10:00:00.000000000+00:00"`` or ``"TimeUS = 51234000 us"``;
         None for simulated data.
+    sliding : tuple of SlidingInterval
+        For simulated data of a model whose f jumps, the intervals in which the state
+        slid on a switching surface (in time order); empty otherwise. One-step
+        predictors evaluate f on one branch at each of their points, so their errors
+        on intervals that overlap these are those of a rule that does not know the
+        sliding (of order h times the jump of f), not of order h^(s+1).
     """
 
     t: np.ndarray
@@ -149,6 +167,7 @@ class Trajectory:
     clean: Trajectory | None = field(default=None, repr=False)
     certificate: Certificate | None = field(default=None, repr=False)
     origin: str | None = field(default=None, repr=False)
+    sliding: tuple[SlidingInterval, ...] = field(default=(), repr=False)
 
     def __post_init__(self) -> None:
         t = _frozen(self.t)
@@ -186,6 +205,7 @@ class Trajectory:
         object.__setattr__(self, "state_units", tuple(self.state_units))
         object.__setattr__(self, "input_names", names)
         object.__setattr__(self, "input_units", units)
+        object.__setattr__(self, "sliding", tuple(SlidingInterval(*s) for s in self.sliding))
 
     @property
     def n_samples(self) -> int:

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ._trajectory import NumericalError, Trajectory
-from .methods import get_method
+from .methods import get_predictor
 from .models import SingularPitchError
 
 __all__ = ["predict"]
@@ -49,15 +49,27 @@ def predict(
     ------
     ValueError
         for NaN or inf in ``measured`` (naming the first bad sample), sizes that do
-        not fit the model, or sample times the method cannot handle (the fixed-step
-        rules need a uniform grid; the message names the largest step deviation).
+        not fit the model, sample times the method cannot handle (the fixed-step
+        rules need a uniform grid; the message names the largest step deviation), or
+        a rule that predicts nothing on sampled data (ZOH, a discrete-time system only).
     SingularPitchError
         (a ValueError) where the model refuses a state near its singularity (a
         vehicle's pitch near +-90 deg): the message says whether the measured data
         hold it, or the rule formed it between samples, and then names the rule and
         the sample whose prediction did.
+
+    Notes
+    -----
+    A model whose f jumps (``sign``, ``Heaviside``, ``Piecewise`` of a state, see
+    ``measured.sliding``): a rule evaluates the model's f at each of its points, the
+    branch of the side that point is on (on a surface, the side the motion takes or
+    Filippov's sliding vector). Over an interval that crosses a surface, or enters or
+    leaves a sliding interval, the one-step error is then of order h times the jump of
+    f (the rule does not know where the jump is), not of the rule's order h^(s+1);
+    inside a sliding interval whose samples lie on the surface, rules that use f at
+    the samples only follow it exactly.
     """
-    m = get_method(method)
+    m = get_predictor(method)
     check_measured(model, measured)
     try:
         return np.asarray(m.predict(model, measured, signal, cache=cache))

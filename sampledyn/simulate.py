@@ -5,7 +5,11 @@ Dormand-Prince 8(5,3) pair (Hairer, Norsett & Wanner, *Solving ODEs I*, 2nd ed.,
 sec. II.10; the coefficients of Hairer's ``dop853.f``, in :mod:`sampledyn._dop853`), with
 error-controlled steps that never cross a sample time, so an input that jumps at a sample
 time is never integrated across. Where f is not smooth inside an interval (``|v| v`` or
-``n |n|`` crossing zero) the error control shrinks the step there instead of every step.
+``n |n|`` crossing zero) a step ends exactly there; where f jumps (``sign``,
+``Heaviside``, ``Piecewise`` of a state) the state crosses the switching surface or
+slides on it (Filippov). The compiled integrator is :mod:`sampledyn._integrator`; this
+module checks the arguments, runs it in chunks and pauses (Ctrl-C and SIGTERM act
+between them), and turns its stops into errors.
 
 The samples come with a :class:`~sampledyn.Certificate`: every interval is integrated a
 second time, in lockstep, with each accepted step halved, and the difference is the
@@ -15,341 +19,39 @@ per-interval flow-error estimate.
 from __future__ import annotations
 
 import math
+import time
 import warnings
 from typing import Any
 
 import numpy as np
-from numba import njit, types
 
-from . import _dop853 as _dop
-from ._trajectory import Certificate, NumericalError, Trajectory
-from .models import RHS_TYPE, RO1, RO2, readonly
+from . import _integrator as _int
+from ._integrator import DEFAULT_MAX_STEPS, integrate_intervals, no_gradient
+from ._trajectory import Certificate, NumericalError, SlidingInterval, Trajectory
 from .models import index_switch as _index_switch
+from .models import readonly
 from .signals import Signal
 
-__all__ = ["IntegrationError", "integrate_intervals", "simulate", "switching"]
-
-_NS = _dop.N_STAGES
-_A = np.ascontiguousarray(_dop.A)
-_B = np.ascontiguousarray(_dop.B)
-_C = np.ascontiguousarray(_dop.C)
-_E3 = np.ascontiguousarray(_dop.E3)
-_E5 = np.ascontiguousarray(_dop.E5)
-
+__all__ = [
+    "DEFAULT_MAX_STEPS",
+    "IntegrationError",
+    "JumpRefused",
+    "integrate_intervals",
+    "no_gradient",
+    "simulate",
+    "switching",
+]
 
 # Sampling intervals per call of the compiled integrator.
 _CHUNK = 1 << 15
+# Wall time one call of the compiled integrator may take before it returns to Python
+# (where Ctrl-C and SIGTERM take effect), and its first step budget.
+_CALL_SECONDS = 0.05
+_FIRST_BUDGET = 256
 
 
 class IntegrationError(NumericalError):
     """The exact-sample integrator could not meet its tolerance."""
-
-
-@njit(cache=True)
-def _input_at(hold_row, offset, amp, freq, phase, t, out):  # pragma: no cover - compiled
-    for j in range(out.shape[0]):
-        v = hold_row[j] + offset[j]
-        for k in range(amp.shape[1]):
-            v += amp[j, k] * math.sin(2.0 * math.pi * freq[j, k] * t + phase[j, k])
-        out[j] = v
-
-
-@njit(cache=True)
-def _dop_stages(rhs, p, t, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew):
-    """Stages 1..11 given K[0] = k0 already; writes y_new. (pragma: compiled)"""
-    nx = y.shape[0]
-    for j in range(nx):
-        K[0, j] = k0[j]
-    for s in range(1, _NS):
-        for j in range(nx):
-            acc = 0.0
-            for m in range(s):
-                acc += _A[s, m] * K[m, j]
-            ytmp[j] = y[j] + dt * acc
-        ts = t + _C[s] * dt
-        _input_at(hold_row, offset, amp, freq, phase, ts, u)
-        rhs(ts, ytmp, u, p, K[s])
-    for j in range(nx):
-        acc = 0.0
-        for m in range(_NS):
-            acc += _B[m] * K[m, j]
-        ynew[j] = y[j] + dt * acc
-
-
-@njit(cache=True)
-def _switch_inside(
-    sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, c
-):  # pragma: no cover - compiled
-    """The switching values at tc + c, c in [0, dt], written to ``g``.
-
-    The state inside the step is the cubic Hermite interpolant of (y, k0) and
-    (ynew, k1), accurate to O(dt^4).
-    """
-    th = c / dt
-    h00 = (1.0 + 2.0 * th) * (1.0 - th) ** 2
-    h10 = th * (1.0 - th) ** 2
-    h01 = th * th * (3.0 - 2.0 * th)
-    h11 = th * th * (th - 1.0)
-    for j in range(y.shape[0]):
-        ytry[j] = h00 * y[j] + h10 * dt * k0[j] + h01 * ynew[j] + h11 * dt * k1[j]
-    _input_at(hold_row, offset, amp, freq, phase, tc + c, u)
-    sw(tc + c, ytry, u, sp, g)
-
-
-@njit(cache=True)
-def _crossing_root(
-    sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, idx, a, fa, fb
-):  # pragma: no cover - compiled
-    """Time c in (a, dt) where switching value ``idx`` crosses zero, given its values
-    ``fa`` at tc + a and ``fb`` at tc + dt (of opposite signs).
-
-    The values inside the step are taken on the step's Hermite interpolant
-    (:func:`_switch_inside`): the kink is then placed to about 1e-8 s, and the error
-    of a misplaced kink grows like the cube of that offset. Illinois method.
-    """
-    b = dt
-    c = dt
-    side = 0
-    for _ in range(60):
-        c = (fa * b - fb * a) / (fa - fb)
-        _switch_inside(
-            sw, sp, tc, y, ynew, k0, k1, dt, hold_row, offset, amp, freq, phase, u, ytry, g, c
-        )
-        fc = g[idx]
-        if fc * fb > 0.0:
-            b, fb = c, fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        elif fa * fc > 0.0:
-            a, fa = c, fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
-        else:
-            break
-        if b - a <= 1e-13 * dt:
-            break
-    return c
-
-
-_F = types.float64
-_A2 = types.float64[:, ::1]
-_B1 = types.Array(types.boolean, 1, "C", readonly=True)
-_INTEGRATE_SIG = types.Tuple((types.int64, _F))(
-    RHS_TYPE, RO1, RO1, RO1, RO2, RO1, RO2, RO2, RO2, _F, _F, types.boolean, types.int64,
-    types.int64, _F, RHS_TYPE, RO1, _B1, _A2, types.int64[::1], _A2, _B1,
-)  # fmt: skip
-
-
-@njit(_INTEGRATE_SIG, cache=True)
-def _integrate(
-    rhs,
-    p,
-    t,
-    x0,
-    hold,
-    offset,
-    amp,
-    freq,
-    phase,
-    rtol,
-    atol,
-    certify,
-    n_start,
-    n_stop,
-    dt_init,
-    sw,
-    sp,
-    sw_input_only,
-    X,
-    steps,
-    diff,
-    restart,
-):  # pragma: no cover - compiled
-    """Integrate intervals n_start..n_stop-1; X[n_start] must hold the start state.
-
-    The nodes ``t`` are the sample times plus any input breakpoint between them. The
-    certifying half-step run restarts from X[n] only where ``restart[n]`` (a sample
-    time): across a breakpoint it goes on, so ``diff`` at the last node of a sampling
-    interval is the difference over the whole interval.
-
-    Steps end exactly where a switching value ``sw(t, x, u, sp)`` crosses zero, so no
-    step straddles a point where f is not smooth (|v| v, n |n|). A value that is zero
-    (or negligible) at a step's start takes its sign from just inside the step, so a
-    state starting at rest on a kink is tested like any other.
-
-    Returns (status, suggested next dt). status 0 ok, 1 step underflow, 2 non-finite.
-    """
-    nx = x0.shape[0]
-    nu = hold.shape[1]
-    K = np.empty((_NS + 1, nx))
-    Kf = np.empty((_NS + 1, nx))
-    ytmp = np.empty(nx)
-    u = np.empty(nu)
-    y = np.empty(nx)
-    ynew = np.empty(nx)
-    ytry = np.empty(nx)
-    yf = np.empty(nx)
-    yfm = np.empty(nx)
-    yfn = np.empty(nx)
-    k0 = np.empty(nx)
-    kf0 = np.empty(nx)
-    n_sw = sw_input_only.shape[0]
-    ga = np.empty(n_sw)
-    gb = np.empty(n_sw)
-    gr = np.empty(n_sw)
-    gp = np.empty(n_sw)
-    dt = dt_init
-    for n in range(n_start, n_stop):
-        ta = t[n]
-        tb = t[n + 1]
-        hold_row = hold[n]
-        for j in range(nx):
-            y[j] = X[n, j]
-            if restart[n]:
-                yf[j] = X[n, j]
-        tc = ta
-        _input_at(hold_row, offset, amp, freq, phase, tc, u)
-        rhs(tc, y, u, p, k0)
-        count = 0
-        min_dt = 1e-12 * (tb - ta)
-        rejected = False
-        dt_free = dt
-        while tc < tb:
-            # dt_free is the step the error control proposes; a step cut short to land
-            # on the sample time or on a kink says nothing about it and does not
-            # change it.
-            dt = dt_free
-            if dt > tb - tc or tb - (tc + dt) < 1e-9 * (tb - ta):
-                dt = tb - tc
-            if n_sw > 0:
-                _input_at(hold_row, offset, amp, freq, phase, tc, u)
-                sw(tc, y, u, sp, ga)
-            while True:
-                _dop_stages(
-                    rhs, p, tc, y, dt, k0, hold_row, offset, amp, freq, phase, K, ytmp, u, ynew
-                )
-                tn = tc + dt
-                if tb - tn < 1e-9 * (tb - ta):
-                    tn = tb
-                _input_at(hold_row, offset, amp, freq, phase, tn, u)
-                rhs(tn, ynew, u, p, K[_NS])
-                # Does a switching value change sign inside the step? Then end the step
-                # on the first such kink (located on the step's Hermite interpolant),
-                # so that f is smooth on every step; the error test follows.
-                tau = dt
-                if n_sw > 0:
-                    sw(tn, ynew, u, sp, gb)
-                    probed = False
-                    for k in range(n_sw):
-                        a, fa = 0.0, ga[k]
-                        if abs(fa) <= 1e-13 * abs(gb[k]):
-                            # The step starts on this kink (a value at exactly 0, as
-                            # from a state at rest, or one just located): its sign at
-                            # the start says nothing, so take the one it has just
-                            # after, at the shortest step a kink may cut (1e-6 dt),
-                            # and look for a crossing after that.
-                            a = 1e-6 * dt
-                            if not probed:
-                                _switch_inside(
-                                    sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset,
-                                    amp, freq, phase, u, ytry, gp, a,
-                                )  # fmt: skip
-                                probed = True
-                            fa = gp[k]
-                        if fa * gb[k] < 0.0:
-                            r = _crossing_root(
-                                sw, sp, tc, y, ynew, k0, K[_NS], dt, hold_row, offset, amp,
-                                freq, phase, u, ytry, gr, k, a, fa, gb[k],
-                            )  # fmt: skip
-                            # A crossing at the very start (the previous step ended
-                            # on this kink) must not hide a later one.
-                            if r > 1e-6 * dt:
-                                tau = min(tau, r)
-                if 1e-6 * dt < tau < dt * (1.0 - 1e-9):
-                    dt = tau
-                    continue
-                break
-            e5 = 0.0
-            e3 = 0.0
-            finite = True
-            for j in range(nx):
-                a5 = 0.0
-                a3 = 0.0
-                for m in range(_NS + 1):
-                    a5 += _E5[m] * K[m, j]
-                    a3 += _E3[m] * K[m, j]
-                sc = atol + rtol * max(abs(y[j]), abs(ynew[j]))
-                e5 += (a5 / sc) ** 2
-                e3 += (a3 / sc) ** 2
-                if not math.isfinite(ynew[j]):
-                    finite = False
-            if not finite:
-                return 2, dt
-            if e5 == 0.0 and e3 == 0.0:
-                err = 0.0
-            else:
-                err = dt * e5 / math.sqrt((e5 + 0.01 * e3) * nx)
-            if err > 1.0:
-                rejected = True
-                dt_free = dt * max(0.2, 0.9 * err ** (-1.0 / 8.0))
-                if dt_free < min_dt:
-                    return 1, dt_free
-                continue
-            step = tn - tc
-            if certify:
-                # The same step as two half steps from the fine state.
-                half = 0.5 * step
-                _input_at(hold_row, offset, amp, freq, phase, tc, u)
-                rhs(tc, yf, u, p, kf0)
-                _dop_stages(
-                    rhs, p, tc, yf, half, kf0, hold_row, offset, amp, freq, phase, Kf, ytmp, u, yfm
-                )
-                _input_at(hold_row, offset, amp, freq, phase, tc + half, u)
-                rhs(tc + half, yfm, u, p, kf0)
-                _dop_stages(
-                    rhs,
-                    p,
-                    tc + half,
-                    yfm,
-                    half,
-                    kf0,
-                    hold_row,
-                    offset,
-                    amp,
-                    freq,
-                    phase,
-                    Kf,
-                    ytmp,
-                    u,
-                    yfn,
-                )
-                for j in range(nx):
-                    yf[j] = yfn[j]
-            tc = tn
-            for j in range(nx):
-                y[j] = ynew[j]
-                k0[j] = K[_NS, j]
-            count += 1
-            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-            if rejected:  # no growth right after a rejection (as in Hairer's DOP853)
-                factor = min(1.0, factor)
-                rejected = False
-            if step >= dt_free * (1.0 - 1e-9):
-                dt_free = step * factor
-        dt = dt_free
-        for j in range(nx):
-            X[n + 1, j] = y[j]
-            diff[n, j] = y[j] - yf[j]
-        steps[n] = count
-    return 0, dt
-
-
-def _readonly_bool(a: Any) -> np.ndarray:
-    a = np.array(a, dtype=np.bool_, copy=True)
-    a.setflags(write=False)
-    return a
 
 
 def switching(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
@@ -479,6 +181,7 @@ def simulate(
     atol: float = 1e-12,
     certify: bool = True,
     progress: bool = False,
+    max_steps: int = DEFAULT_MAX_STEPS,
 ) -> Trajectory:
     """Exact samples of ``x' = f(t, x, u(t))`` at t_n = n h, n = 0..T/h.
 
@@ -500,11 +203,16 @@ def simulate(
         Attach a :class:`~sampledyn.Certificate` (costs about twice the work).
     progress : bool
         Show a progress bar.
+    max_steps : int
+        Step attempts (and events) one integration interval may take before the
+        integration stops as stalled (default 100,000; a smooth interval takes a few
+        to a few hundred).
 
     Returns
     -------
     Trajectory with ``t`` shape (N,), ``x`` shape (N, nx), ``u`` shape (N, nu);
-    ``u`` is the input at the sample times.
+    ``u`` is the input at the sample times; ``sliding`` the intervals of sliding
+    motion on a switching surface (empty without jumps).
 
     Raises
     ------
@@ -513,7 +221,19 @@ def simulate(
         ``breakpoints()`` does not list (found at interval midpoints), naming the
         interval.
     IntegrationError
-        if the integrator cannot meet its tolerance.
+        if the integrator cannot meet its tolerance, or stalls (more than
+        ``max_steps`` in one interval: Zeno behaviour, chattering, an f that jumps
+        where the model declares no switching function); the message names the time,
+        the state and the switching function last located.
+    JumpRefused
+        (an IntegrationError) where f jumps and the solution is not unique (both
+        sides push the state away from the surface, as x' = sign(x) from x = 0) or
+        would slide on the intersection of two surfaces; the message names the
+        surface, the time and the state.
+    KeyboardInterrupt
+        on Ctrl-C (or the caller's SIGTERM handler's exception): the integrator returns
+        to Python at least every 0.05 s of work, so either stops it within a second;
+        the message says how far it came.
 
     Notes
     -----
@@ -524,28 +244,23 @@ def simulate(
     covers the whole sampling interval (its half-step run is not restarted at the
     jump). Memory: about the returned arrays plus one N x nx array of differences
     when certifying.
+
+    Where f jumps across a switching surface (``sign``, ``Heaviside``, ``Piecewise``
+    of a state in a :class:`~sampledyn.models.SymbolicModel`, or declared by a
+    :class:`~sampledyn.models.FunctionModel`), the integration lands on the surface and
+    crosses it with the branch of f of the other side, or slides on it with
+    Filippov's convex combination of the two branches until one side's field points
+    away (Piiroinen and Kuznetsov's event-driven method, ACM Trans. Math. Softw.
+    34(3), 2008; details in :mod:`sampledyn._integrator`). The value the formula gives
+    on the surface itself is never integrated.
     """
     n_int = _check_period(h, T)
-    if not hasattr(model, "kernel"):
-        raise TypeError(
-            "`model` must provide a compiled kernel (a sampledyn model), "
-            f"got {type(model).__name__}."
-        )
-    if getattr(signal, "nu", None) != model.nu:
-        raise ValueError(
-            f"`signal` has nu={getattr(signal, 'nu', None)} channels, "
-            f"the model needs nu={model.nu}."
-        )
-    signal.check_sampling(float(h))
-    if x0 is None:
-        x0 = model.default_x0
-    x0 = np.asarray(x0, dtype=float)
-    if x0.shape != (model.nx,):
-        raise ValueError(f"`x0` must have shape ({model.nx},), got {x0.shape}.")
-    if not np.isfinite(x0).all():
-        raise ValueError("`x0` holds NaN or inf.")
+    _check_model(model, signal, h)
+    x0 = _initial_state(model, x0)
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 1:
+        raise ValueError(f"`max_steps` must be a positive int, got {max_steps!r}.")
 
     # t_n = n h (the same values as h * arange, without the integer temporary)
     t = np.arange(n_int + 1, dtype=float)
@@ -557,10 +272,9 @@ def simulate(
 
         bar = tqdm(total=n_int, desc=f"simulate T={T:g} s h={h:g} s", unit="interval")
     limits = _InputLimits(model)
+    run = _Integration(model, rtol, atol, certify, int(max_steps))
     try:
-        X, steps, diff = _run(
-            model, signal, nodes, sample_node, x0, rtol, atol, certify, bar, limits
-        )
+        X, steps, diff = _run(run, signal, nodes, sample_node, x0, bar, limits)
     finally:
         if bar is not None:
             bar.close()
@@ -587,18 +301,187 @@ def simulate(
         input_names=model.input_names,
         input_units=model.input_units,
         certificate=certificate,
+        sliding=run.sliding(float(t[-1])),
     )
 
 
+def _check_model(model: Any, signal: Any, h: float) -> None:
+    if not hasattr(model, "kernel"):
+        raise TypeError(
+            "`model` must provide a compiled kernel (a sampledyn model), "
+            f"got {type(model).__name__}."
+        )
+    if getattr(signal, "nu", None) != model.nu:
+        raise ValueError(
+            f"`signal` has nu={getattr(signal, 'nu', None)} channels, "
+            f"the model needs nu={model.nu}."
+        )
+    signal.check_sampling(float(h))
+
+
+def _initial_state(model: Any, x0: Any) -> np.ndarray:
+    if x0 is None:
+        x0 = model.default_x0
+    x0 = np.asarray(x0, dtype=float)
+    if x0.shape != (model.nx,):
+        raise ValueError(f"`x0` must have shape ({model.nx},), got {x0.shape}.")
+    if not np.isfinite(x0).all():
+        raise ValueError("`x0` holds NaN or inf.")
+    return x0
+
+
+class JumpRefused(IntegrationError):
+    """f jumps across a switching surface and the motion there is not defined: both
+    sides push the state away (non-unique solutions), or it would slide on the
+    intersection of two surfaces. The message names the surface, time and state."""
+
+
+class _Integration:
+    """One run of the compiled integrator (:func:`sampledyn._integrator.integrate`):
+    the model's kernels and the integrator's state, which persists from call to call,
+    so that the integrator can return to Python as often as needed (every
+    ``_CALL_SECONDS`` of work, where Ctrl-C and SIGTERM take effect) and go on with the
+    same numbers."""
+
+    def __init__(self, model: Any, rtol: float, atol: float, certify: bool, max_steps: int):
+        self.model = model
+        rhs, p = model.kernel()
+        self.sw, sp, input_only = switching(model)
+        self.sp = readonly(np.asarray(sp, dtype=float))
+        n_sw = int(np.asarray(input_only).shape[0])
+        get = getattr(model, "jump_kernel", None)
+        jumps = get() if get is not None else None
+        if jumps is None:
+            self.rhs, self.grad = rhs, _int.no_gradient
+            self.q = np.array(p, dtype=float)
+            info = np.full((n_sw, 2), -1, dtype=np.int64)
+            info[:, 1] = 0
+        else:
+            self.rhs, self.grad, q, info = jumps
+            self.q = np.array(q, dtype=float)
+        self.info = np.ascontiguousarray(info, dtype=np.int64)
+        self.info.setflags(write=False)
+        self.rtol, self.atol, self.certify, self.max_steps = rtol, atol, certify, max_steps
+        self.st = np.zeros(_int.STATE_SLOTS + n_sw)
+        self.st[_int.S_SLIDE] = -1.0
+        self.st[_int.S_ERR_K] = -1.0
+        self.W = np.zeros((_int.N_VECTORS, int(model.nx)))
+        self.log = np.zeros((64, 3))
+        self.budget = _FIRST_BUDGET
+
+    def chunk(
+        self, t: np.ndarray, spec: Any, X: np.ndarray, steps: np.ndarray, diff: np.ndarray,
+        restart: np.ndarray,
+    ) -> None:  # fmt: skip
+        """Integrate the intervals of nodes ``t`` (X[0] the start state), pausing
+        every ``_CALL_SECONDS``; raise on a failure."""
+        st = self.st
+        st[_int.S_N] = 0.0
+        st[_int.S_PHASE] = 0.0
+        args = (
+            readonly(t), readonly(spec.hold), readonly(spec.offset), readonly(spec.amp),
+            readonly(spec.freq_hz), readonly(spec.phase_rad),
+        )  # fmt: skip
+        while True:
+            start = time.perf_counter()
+            status = _int.integrate(
+                self.rhs, self.grad, self.q, *args, float(self.rtol), float(self.atol),
+                bool(self.certify), t.shape[0] - 1, self.sw, self.sp, self.info, X, steps,
+                diff, restart, st, self.W, self.log, self.budget, self.max_steps,
+            )  # fmt: skip
+            if status == _int.PAUSED:
+                # as many attempts as fit in _CALL_SECONDS at the rate just measured
+                rate = self.budget / max(time.perf_counter() - start, 1e-6)
+                self.budget = int(min(max(rate * _CALL_SECONDS, 16), 1 << 24))
+            elif status == _int.LOG_FULL:
+                self.log = np.concatenate([self.log, np.zeros_like(self.log)])
+            elif status == _int.OK:
+                return
+            else:
+                raise self.failure(status, t, X)
+
+    def sliding(self, t_end: float) -> tuple[SlidingInterval, ...]:
+        """The sliding intervals of the log (one still open at the end ends there)."""
+        names = _switch_names(self.model, self.info.shape[0])
+        out = []
+        open_at: dict[int, float] = {}
+        for t, k, what in self.log[: int(self.st[_int.S_NLOG])]:
+            if what > 0:
+                open_at[int(k)] = float(t)
+            else:
+                out.append(SlidingInterval(names[int(k)], open_at.pop(int(k)), float(t)))
+        out += [SlidingInterval(names[k], t0, t_end) for k, t0 in open_at.items()]
+        return tuple(sorted(out, key=lambda s: s.start))
+
+    def failure(self, status: int, t: np.ndarray, X: np.ndarray) -> IntegrationError:
+        """The error of a failed call, naming the time, state and switching function."""
+        st = self.st
+        model = self.model
+        n = int(st[_int.S_N])
+        t_err = float(st[_int.S_TC] if status != _int.NONFINITE else t[n])
+        at = f"at t = {t_err:.10g} s"
+        k = int(st[_int.S_ERR_K])
+        names = _switch_names(model, self.info.shape[0])
+        where = f"g = {names[k]}" if 0 <= k < len(names) else "none located"
+        state = _state_text(model, self.W[0] if status != _int.NONFINITE else X[n])
+        interval = f"the interval [{t[n]:.10g}, {t[n + 1]:.10g}] s"
+        if status == _int.REPELLING:
+            return JumpRefused(
+                f"{at}, {state} is on the switching surface {names[k]} = 0 and f points away "
+                f"from it on both sides (rate of {names[k]}: {st[_int.S_ERR_A]:.6g} on its "
+                f"negative side, {st[_int.S_ERR_B]:.6g} on its positive side): the solution "
+                "is not unique there (x' = sign(x) from x = 0 is the smallest example). "
+                "Start off the surface, or change the model so that it decides."
+            )
+        if status == _int.INTERSECTION:
+            other = names[int(st[_int.S_ERR_A])]
+            return JumpRefused(
+                f"{at}, {state} slides on the switching surface {other} = 0 and reaches "
+                f"{names[k]} = 0, which both sliding fields push it onto: sliding on the "
+                "intersection of two surfaces is not supported (Filippov's combination of "
+                "four branches is not unique there)."
+            )
+        if status == _int.STALL:
+            return IntegrationError(
+                f"the integration stalled in {interval}: {self.max_steps} steps "
+                f"(`max_steps`) without reaching its end, {at}, {state}; switching function "
+                f"last located: {where}. Zeno behaviour or chattering there, or an f that "
+                "jumps where the model declares no switching function (a FunctionModel "
+                "declares them with `switching=` and `jumps=`); raise `max_steps` if the "
+                "interval needs more steps."
+            )
+        what = "step size underflow" if status == _int.UNDERFLOW else "NaN or inf in the state"
+        return IntegrationError(
+            f"{what} in {interval}, {at}, {state} (switching function last located: "
+            f"{where}); the model may diverge there, jump where it declares no switching "
+            "function, or the tolerance may be too tight."
+        )
+
+
+def _switch_names(model: Any, n_sw: int) -> tuple[str, ...]:
+    """Names of the switching values, for messages."""
+    get = getattr(model, "switching_names", None)
+    if get is not None:
+        names = tuple(get())
+        if len(names) == n_sw:
+            return names
+    states = [model.state_names[int(i)] for i in getattr(model, "kink_states", ())]
+    inputs = [model.input_names[int(j)] for j in getattr(model, "kink_inputs", ())]
+    names = tuple(states + inputs)
+    return names if len(names) == n_sw else tuple(f"g[{k}]" for k in range(n_sw))
+
+
+def _state_text(model: Any, x: np.ndarray) -> str:
+    pairs = ", ".join(f"{n} = {v:.10g}" for n, v in zip(model.state_names, x, strict=True))
+    return f"the state ({pairs})"
+
+
 def _run(
-    model: Any,
+    run: _Integration,
     signal: Any,
     nodes: np.ndarray,
     sample_node: np.ndarray | None,
     x0: np.ndarray,
-    rtol: float,
-    atol: float,
-    certify: bool,
     bar: Any,
     limits: _InputLimits,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -607,12 +490,12 @@ def _run(
     Returns the samples X (N, nx), the internal steps per sampling interval (N - 1,)
     and, when certifying, the per-interval differences of the half-step run (N - 1, nx).
     The held input is built per chunk, so memory stays near the size of the result;
-    dt carries over from chunk to chunk, so the numbers do not depend on the chunking.
+    the integrator's state (step proposal, sides of the jumps) carries over from chunk
+    to chunk, so the numbers do not depend on the chunking.
     """
-    rhs, p = model.kernel()
-    sw, sp, sw_input_only = switching(model)
+    nx = int(run.model.nx)
     n_int = nodes.shape[0] - 1 if sample_node is None else sample_node.shape[0] - 1
-    X = np.empty((nodes.shape[0], model.nx))
+    X = np.empty((nodes.shape[0], nx))
     X[0] = x0
     steps = np.zeros(nodes.shape[0] - 1, dtype=np.int64)
     restart = np.ones(nodes.shape[0], dtype=np.bool_)
@@ -623,10 +506,10 @@ def _run(
     # Differences of the certifying run: kept for every sampling interval only when
     # certifying (the certificate's scale needs all samples first); otherwise, and at
     # breakpoint nodes, a scratch block the kernel writes into.
-    diff = np.empty((n_int, model.nx)) if certify else None
-    scratch = np.empty((0, model.nx))
+    diff = np.empty((n_int, nx)) if run.certify else None
+    scratch = np.empty((0, nx))
     # the first step proposal: h
-    dt = float(nodes[1 if sample_node is None else sample_node[1]] - nodes[0])
+    run.st[_int.S_DT] = float(nodes[1 if sample_node is None else sample_node[1]] - nodes[0])
     for k0 in range(0, n_int, _CHUNK):
         k1 = min(k0 + _CHUNK, n_int)
         a, b = (k0, k1) if sample_node is None else (int(sample_node[k0]), int(sample_node[k1]))
@@ -637,39 +520,16 @@ def _run(
             d_out = diff[k0:k1]
         else:
             if scratch.shape[0] < b - a:
-                scratch = np.empty((b - a, model.nx))
+                scratch = np.empty((b - a, nx))
             d_out = scratch[: b - a]
-        status, dt = _integrate(
-            rhs,
-            readonly(p),
-            readonly(nodes[a : b + 1]),
-            readonly(x0),
-            readonly(spec.hold),
-            readonly(spec.offset),
-            readonly(spec.amp),
-            readonly(spec.freq_hz),
-            readonly(spec.phase_rad),
-            float(rtol),
-            float(atol),
-            bool(certify),
-            0,
-            b - a,
-            dt,
-            sw,
-            readonly(sp),
-            _readonly_bool(sw_input_only),
-            X[a : b + 1],
-            steps[a:b],
-            d_out,
-            restart[a : b + 1],
-        )
-        if status != 0:
-            bad = int(np.argmax(steps[a:b] == 0)) + a
-            what = "step size underflow" if status == 1 else "NaN or inf in the state"
-            raise IntegrationError(
-                f"{what} in the interval starting at t={nodes[bad]:g} s; the model may "
-                "diverge there or the tolerance may be too tight."
-            )
+        try:
+            run.chunk(nodes[a : b + 1], spec, X[a : b + 1], steps[a:b], d_out, restart[a : b + 1])
+        except KeyboardInterrupt:
+            st = run.st
+            t_at = float(st[_int.S_TC] if st[_int.S_PHASE] else nodes[a + int(st[_int.S_N])])
+            raise KeyboardInterrupt(
+                f"simulate interrupted at t = {t_at:.6g} s of {float(nodes[-1]):g} s"
+            ) from None
         if diff is not None and sample_node is not None:
             # the difference over a sampling interval is the one at its last node
             diff[k0:k1] = d_out[sample_node[k0 + 1 : k1 + 1] - a - 1]
@@ -753,9 +613,3 @@ def _nodes(signal: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         )
     sample_node = np.flatnonzero(order < t.shape[0])
     return nodes, sample_node
-
-
-# The compiled interval integrator under a public name: a sampled loop integrates one
-# sampling interval at a time, with the held input computed from the samples before it
-# (sampledyn.discretize.run_loop calls it from compiled code).
-integrate_intervals = _integrate

@@ -43,8 +43,8 @@ def _input(text: str, model: Any) -> Any:
     """The signal of ``--input``: a registered input name or an inline TOML table."""
     import tomllib
 
-    from ..experiments.sweep import make_input
     from ..models import ClosedLoop
+    from ..signals import input_for
 
     text = text.strip()
     if text.startswith("{"):
@@ -59,7 +59,7 @@ def _input(text: str, model: Any) -> Any:
         spec = {"name": text}
     plant = model.plant if isinstance(model, ClosedLoop) else model
     try:
-        return make_input(spec, plant)
+        return input_for(spec, plant)
     except (ValueError, TypeError) as exc:
         raise ValueError(f"`--input` {text!r}: {exc}") from exc
 

@@ -190,12 +190,9 @@ def refuse(message: str) -> None:
 
 
 def registry() -> Any:
-    """The method registry (:mod:`sampledyn.methods`), complete: the estimation layer
-    registers its rules (Ee, ABe<s>) when imported, so every command that names or
-    lists rules asks the registry through here."""
-    from .. import (
-        estimate,  # noqa: F401
-        methods,
-    )
+    """The method registry (:mod:`sampledyn.methods`), imported when a command first
+    names or lists rules (it is complete on import: the estimated rules are lazy
+    entries)."""
+    from .. import methods
 
     return methods

@@ -13,7 +13,8 @@ __all__ = ["add_parser"]
 
 
 def _estimating(name: str) -> bool:
-    return bool(registry().get_method(name).estimates_params)
+    reg = registry()
+    return isinstance(reg.get_method(name), reg.Estimator)
 
 
 def _check_estimate(rules: tuple[str, ...]) -> None:

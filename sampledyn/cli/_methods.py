@@ -24,13 +24,18 @@ def _cmd_methods(args: argparse.Namespace) -> int:
     print("\nRegistered rules (a_s: first-order noise gain c in G = c h L; C: error constant):")
     for name in available_methods():
         m = get_method(name)
-        gain = "-" if m.first_order_gain is None else str(m.first_order_gain)
-        const = "-" if m.error_constant is None else str(m.error_constant)
-        where = "between samples" if m.intersample else "at samples"
-        est = ", estimated" if m.estimates_params else ""
+        bounded = isinstance(m, reg.NoiseAnalysis)
+        gain = str(m.first_order_gain) if bounded else "-"
+        const = str(m.error_constant) if bounded and m.error_constant is not None else "-"
+        order = "-" if m.order is None else str(m.order)
+        if isinstance(m, reg.Predictor):
+            where = "f between samples" if m.intersample else "f at samples"
+        else:
+            where = "discrete-time system only"
+        est = ", estimated" if isinstance(m, reg.Estimator) else ""
         print(
-            f"  {name:6s} order {m.order}  history {m.history}  a_s = {gain:7s} "
-            f"C = {const:12s} f {where}{est}"
+            f"  {name:6s} order {order}  history {m.history}  a_s = {gain:7s} "
+            f"C = {const:12s} {where}{est}"
         )
     return 0
 

@@ -69,7 +69,7 @@ _TABLE_COLUMNS = [
     "v_pct",
     "seed",
     "method",
-    "norm",
+    "measure",
     "err_eta",
     "err_v",
     "status",
@@ -85,11 +85,13 @@ def _table_columns(df: Any) -> list[str]:
     stored = {name for name, _type in CELL_COLUMNS}
     cols = ["vehicle"] if df["vehicle"].nunique() > 1 else []
     cols += [c for c in _TABLE_COLUMNS if c in df.columns]
-    cols += [c for c in df.columns if c not in stored]
+    cols += [c for c in df.columns if c not in stored and c not in cols]
     return [c for c in cols if df[c].notna().any()] or cols
 
 
 def _cmd_results(args: argparse.Namespace) -> int:
+    if args.kind is not None and args.table != "cells":
+        refuse("`--kind` selects from `--table cells` only.")
     if args.format == "parquet" and not args.out:
         refuse("`--format parquet` needs `--out FILE`.")
     out = writable_file(args.out, "--out") if args.out else None
@@ -97,7 +99,7 @@ def _cmd_results(args: argparse.Namespace) -> int:
     from ..experiments.sweep import load_results as load
 
     with option("STORE"):
-        df = load(args.store, args.table)
+        df = load(args.store, args.table, kind=args.kind)
     if args.format == "parquet":
         try:
             df.to_parquet(out, index=False)
@@ -209,6 +211,12 @@ def add_parsers(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         default="cells",
         help="cells: one row per cell (default); trajectories: the exact samples and their "
         "certificates; runs: one row per sweep run with its counts",
+    )
+    res.add_argument(
+        "--kind",
+        default=None,
+        help="cells only: the view of one cell kind (prediction, closed_loop, multistep): "
+        "its cells, its measure under its own name (norm, horizon) and its own values",
     )
     res.add_argument("--out", help="output file (default: standard output; parquet needs it)")
     res.set_defaults(func=_cmd_results)

@@ -1,6 +1,6 @@
 """Discrete-time models of the sampled-data rules, and the loop of a digital controller.
 
-:func:`discretize` turns a model and a rule (E, AB_s, ABu_s, RK_s, T) into a
+:func:`discretize` turns a model and a rule (E, AB_s, ABu_s, RK_s, T, ZOH) into a
 discrete-time system z+ = F(z, u) (:class:`DiscreteModel`: ``step``, ``rollout``,
 ``linearize``, ``steady_state``, ``noise_gain``, ``to_control``, ``to_casadi``).
 :func:`run_loop` runs a digital controller against the exact plant (input held

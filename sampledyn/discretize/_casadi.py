@@ -130,12 +130,7 @@ def _sympy_rhs(model: Any, x: Any, u: Any) -> Any:
         )
     values = model.params
     subs = {s: values[s.name] for s in e["params"]}
-    rhs = [sp.sympify(r).subs(subs) for r in e["rhs"]]
-    if any(r.has(sp.Piecewise) for r in rhs):
-        raise ValueError(
-            f"{model.name!r} uses Piecewise, which has no CasADi translation here; write it "
-            "with Max/Min/Heaviside/sign/Abs."
-        )
+    rhs = [_branching_calls(sp, sp.sympify(r).subs(subs)) for r in e["rhs"]]
 
     def fmax(*a: Any) -> Any:
         return functools.reduce(ca.fmax, a)
@@ -149,10 +144,44 @@ def _sympy_rhs(model: Any, x: Any, u: Any) -> Any:
     names = {
         "Abs": ca.fabs, "abs": ca.fabs, "sign": ca.sign, "Heaviside": heaviside,
         "Max": fmax, "Min": fmin, "max": fmax, "min": fmin,
+        "_IfElse": ca.if_else, "_And": _fold(ca.logic_and), "_Or": _fold(ca.logic_or),
+        "_Not": ca.logic_not,
     }  # fmt: skip
     fn = sp.lambdify([*e["states"], *e["inputs"]], rhs, modules=[names, ca])
     out = fn(*[x[i] for i in range(x.shape[0])], *[u[i] for i in range(u.shape[0])])
     return ca.vertcat(*[ca.SX(v) if isinstance(v, int | float) else v for v in out])
+
+
+def _fold(op: Any) -> Any:
+    def fold(*a: Any) -> Any:
+        return functools.reduce(op, a)
+
+    return fold
+
+
+def _branching_calls(sp: Any, e: Any) -> Any:
+    """``e`` with every ``Piecewise`` as nested ``_IfElse(cond, then, else)`` calls and
+    its logic as ``_And``/``_Or``/``_Not`` calls, which the CasADi namespace maps to
+    ``casadi.if_else`` and ``casadi.logic_*``: Python's ``if`` and ``and`` cannot take
+    CasADi symbols. A Piecewise without a True branch is NaN where no condition holds
+    (as sympy's)."""
+    names = {sp.And: "_And", sp.Or: "_Or", sp.Not: "_Not"}
+
+    def logic(c: Any) -> Any:
+        if c is sp.true or c is sp.false:
+            return sp.Integer(1 if c is sp.true else 0)
+        for kind, name in names.items():
+            if isinstance(c, kind):
+                return sp.Function(name)(*[logic(a) for a in c.args])
+        return c
+
+    def piecewise(node: Any) -> Any:
+        out = sp.nan
+        for value, cond in reversed(node.args):
+            out = value if cond is sp.true else sp.Function("_IfElse")(logic(cond), value, out)
+        return out
+
+    return e.replace(lambda n: isinstance(n, sp.Piecewise), piecewise)
 
 
 def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
@@ -173,15 +202,17 @@ def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
 def casadi_rhs(model: Any) -> Any:
     """``casadi.Function`` f(x, u) -> x' of a continuous-time model (SX).
 
-    Supported: symbolic models (from their sympy expressions), the AUV-like system,
+    Supported: symbolic models (from their sympy expressions: ``Piecewise`` as
+    ``casadi.if_else``, ``sign`` and ``Heaviside`` with their values at zero as the
+    formula gives them), the AUV-like system,
     vehicles and other hand-written kernels without branches on x or u (from the
     kernel's own source), closed loops of those with a linear feedback.
 
     Raises
     ------
     ValueError
-        for a time-varying symbolic model, Piecewise, or a kernel that branches on a
-        state or input (named).
+        for a time-varying symbolic model, or a kernel that branches on a state or
+        input (named).
     """
     ca = _casadi()
     x = ca.SX.sym("x", int(model.nx))
@@ -189,30 +220,50 @@ def casadi_rhs(model: Any) -> Any:
     return ca.Function("f", [x, u], [_rhs_expression(model, x, u)], ["x", "u"], ["xdot"])
 
 
+class _Solvers:
+    """What a rule's vector step may ask of CasADi: the root of an implicit stage
+    (Newton ``rootfinder``, MX) and the exact flow over one interval (``integrator``,
+    CVODES)."""
+
+    def __init__(self, ca: Any, dm: Any, f: Any, z: Any, u: Any) -> None:
+        self.ca, self.dm, self.f, self.z, self.u = ca, dm, f, z, u
+
+    def implicit(self, residual: Any, guess: Any) -> Any:
+        ca, nx = self.ca, self.dm.nx
+        x1 = ca.MX.sym("x1", nx)
+        g = ca.Function("residual", [x1, self.z, self.u], [residual(x1)])
+        solver = ca.rootfinder(
+            f"{self.dm.method.name}_newton", "newton", g, {"abstol": 1e-14, "max_iter": 50}
+        )
+        return solver(guess, self.z, self.u)
+
+    def flow(self, x0: Any, u: Any, h: float) -> Any:
+        ca, dm = self.ca, self.dm
+        x = ca.MX.sym("x", dm.nx)
+        p = ca.MX.sym("p", dm.nu)
+        tol = {"abstol": 1e-12, "reltol": 1e-12}
+        ode = {"x": x, "p": p, "ode": self.f(x, p)}
+        run = ca.integrator(f"{dm.method.name}_flow", "cvodes", ode, 0.0, float(h), tol)
+        return run(x0=x0, p=u)["xf"]
+
+
 def discrete_function(dm: Any) -> Any:
-    """``casadi.Function`` F(z, u) -> z+ of a DiscreteModel, from the rule's
-    ``step_blocks`` on the model's CasADi f. Explicit rules give an SX function;
-    Tustin's implicit step is a Newton ``rootfinder`` (MX), exact to its tolerance
-    (1e-14) and differentiable by the implicit function theorem."""
+    """``casadi.Function`` F(z, u) -> z+ of a DiscreteModel, from the rule's step
+    (``discrete_step.blocks``) on the model's CasADi f. Explicit rules give an SX
+    function; Tustin's implicit step is a Newton ``rootfinder`` (MX), exact to its
+    tolerance (1e-14) and differentiable by the implicit function theorem; ZOH's exact
+    flow a CVODES ``integrator`` (MX, rtol = atol = 1e-12)."""
     ca = _casadi()
     f = casadi_rhs(dm.model)
     nx, nu, core = dm.nx, dm.nu, len(dm.layout) * dm.nx
-    implicit_rule = "jac(" in dm.method.step_source()
-    sym = ca.MX.sym if implicit_rule else ca.SX.sym
+    symbolic_only = dm.step_data.kernels == frozenset({"rhs"})
+    sym = ca.SX.sym if symbolic_only else ca.MX.sym
     z = sym("z", dm.nz)
     u = sym("u", nu)
     blocks = [z[b * nx : (b + 1) * nx] for b in range(len(dm.layout))]
     applied = z[core:] if dm.delay else u
-
-    def implicit(residual: Any, guess: Any) -> Any:
-        x1 = ca.MX.sym("x1", nx)
-        g = ca.Function("residual", [x1, z, u], [residual(x1)])
-        solver = ca.rootfinder(
-            f"{dm.method.name}_newton", "newton", g, {"abstol": 1e-14, "max_iter": 50}
-        )
-        return solver(guess, z, u)
-
-    new = dm.method.step_blocks(lambda t, xb, ub: f(xb, ub), 0.0, blocks, applied, dm.h, implicit)
+    solvers = _Solvers(ca, dm, f, z, u)
+    new = dm.step_data.blocks(lambda t, xb, ub: f(xb, ub), 0.0, blocks, applied, dm.h, solvers)
     parts = list(new) + ([u] if dm.delay else [])
     name = f"{dm.method.name}_h{dm.h:g}".replace(".", "p")
     return ca.Function(name, [z, u], [ca.vertcat(*parts)], ["z", "u"], ["z_next"])

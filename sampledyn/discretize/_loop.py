@@ -20,6 +20,7 @@ per sample; any other controller is a Python callable, called once per sample.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -28,9 +29,9 @@ import numpy as np
 from numba import njit, types
 
 from .._trajectory import Trajectory
-from ..models import RHS_TYPE, RO1, RO2, readonly
+from ..models import JAC_TYPE, RHS_TYPE, RO1, RO2, readonly, refuse_jumps
 from ..noise import add_noise
-from ..simulate import IntegrationError, integrate_intervals, switching
+from ..simulate import IntegrationError, integrate_intervals, no_gradient, switching
 from ._model import DiscreteModel
 
 __all__ = ["EnvelopeExceeded", "LinearLaw", "LoopRun", "run_loop"]
@@ -46,7 +47,7 @@ _A2 = types.float64[:, ::1]
 _B1 = types.Array(types.boolean, 1, "C", readonly=True)
 _I1 = types.Array(types.int64, 1, "C", readonly=True)
 _LOOP_SIG = types.Tuple((types.int64, _F, types.int64))(
-    RHS_TYPE, RO1, RHS_TYPE, RO1, _B1,  # plant rhs, p, switching sw, sp, input_only
+    RHS_TYPE, JAC_TYPE, RO1, RHS_TYPE, RO1, _B1,  # plant rhs, no gradient, p, sw, sp, input_only
     RHS_TYPE, RO1,  # design model rhs, p (f-blocks of z)
     RO1, _A2, RO2, _A2, _A2, _A2,  # t, X, noise, Y (measured), command, applied
     RO2, RO2, RO2, _I1, _I1, RO1, RO1,  # K, z_ref, u_ref, kinds, lags, u_lo, u_hi
@@ -56,9 +57,53 @@ _LOOP_SIG = types.Tuple((types.int64, _F, types.int64))(
 )  # fmt: skip
 
 
+@njit(inline="always")
+def _law(n, t, Y, U, cmd, drhs, dp, K, z_ref, u_ref, kinds, lags, u_lo, u_hi, delay, z, fb):
+    """cmd[n] of the linear law: z from the measured history as the design model's
+    layout says (a past state, or f of the design model there with the input applied),
+    the previous command with ``delay``; ``u_ref`` until the history is complete."""
+    nx = Y.shape[1]
+    nu = cmd.shape[1]
+    nb = kinds.shape[0]
+    nz = K.shape[1]
+    hist = 0
+    for b in range(nb):
+        hist = max(hist, lags[b] + 1)
+    if n < hist - 1 or (delay and n < 1):
+        for i in range(nu):
+            cmd[n, i] = min(max(u_ref[n, i], u_lo[i]), u_hi[i])
+        return
+    for b in range(nb):
+        k = n - lags[b]
+        if kinds[b] == 0:
+            for j in range(nx):
+                z[b * nx + j] = Y[k, j]
+        else:
+            drhs(t[k], Y[k], U[k], dp, fb)
+            for j in range(nx):
+                z[b * nx + j] = fb[j]
+    if delay:
+        for j in range(nu):
+            z[nb * nx + j] = cmd[n - 1, j]
+    for i in range(nu):
+        v = u_ref[n, i]
+        for j in range(nz):
+            v += K[i, j] * (z[j] - z_ref[n, j])
+        cmd[n, i] = min(max(v, u_lo[i]), u_hi[i])
+
+
+@njit(inline="always")
+def _outside(X, n, x_lo, x_hi):
+    """True if sample n left the envelope [x_lo, x_hi]."""
+    for j in range(X.shape[1]):
+        if not x_lo[j] <= X[n, j] <= x_hi[j]:
+            return True
+    return False
+
+
 @njit(_LOOP_SIG, cache=True)
 def _loop(
-    rhs, p, sw, sp, sw_io, drhs, dp, t, X, noise, Y, cmd, U,
+    rhs, grad, p, sw, sp, sw_io, drhs, dp, t, X, noise, Y, cmd, U,
     K, z_ref, u_ref, kinds, lags, u_lo, u_hi,
     law_on, delay, n_start, n_stop, rtol, atol, dt, steps, diff, restart, z1, z2, x_lo, x_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
@@ -69,54 +114,50 @@ def _loop(
     """
     nx = X.shape[1]
     nu = U.shape[1]
-    nb = kinds.shape[0]
-    hist = 0
-    for b in range(nb):
-        hist = max(hist, lags[b] + 1)
-    nz = K.shape[1]
-    z = np.empty(nz)
+    z = np.empty(K.shape[1])
     fb = np.empty(nx)
     for n in range(n_start, n_stop):
         for j in range(nx):
             Y[n, j] = X[n, j] + noise[n, j]
         if law_on:
-            if n >= hist - 1 and (not delay or n >= 1):
-                for b in range(nb):
-                    k = n - lags[b]
-                    if kinds[b] == 0:
-                        for j in range(nx):
-                            z[b * nx + j] = Y[k, j]
-                    else:
-                        drhs(t[k], Y[k], U[k], dp, fb)
-                        for j in range(nx):
-                            z[b * nx + j] = fb[j]
-                if delay:
-                    for j in range(nu):
-                        z[nb * nx + j] = cmd[n - 1, j]
-                for i in range(nu):
-                    v = u_ref[n, i]
-                    for j in range(nz):
-                        v += K[i, j] * (z[j] - z_ref[n, j])
-                    cmd[n, i] = min(max(v, u_lo[i]), u_hi[i])
-            else:
-                for i in range(nu):
-                    cmd[n, i] = min(max(u_ref[n, i], u_lo[i]), u_hi[i])
+            _law(n, t, Y, U, cmd, drhs, dp, K, z_ref, u_ref, kinds, lags, u_lo, u_hi, delay, z, fb)
         if n + 1 >= X.shape[0]:
             break
         for i in range(nu):
             U[n, i] = cmd[n - 1, i] if delay and n >= 1 else cmd[n, i]
         status, dt = integrate_intervals(
-            rhs, p, t, X[n], U, z1, z2, z2, z2, rtol, atol, False, n, n + 1, dt,
+            rhs, grad, p, t, X[n], U, z1, z2, z2, z2, rtol, atol, False, n, n + 1, dt,
             sw, sp, sw_io, X, steps, diff, restart,
         )  # fmt: skip
         if status != 0:
             return status, dt, n
         if math.isnan(X[n + 1, 0]):
             return 2, dt, n
-        for j in range(nx):
-            if not x_lo[j] <= X[n + 1, j] <= x_hi[j]:
-                return 3, dt, n + 1
+        if _outside(X, n + 1, x_lo, x_hi):
+            return 3, dt, n + 1
     return 0, dt, n_stop
+
+
+def _in_slices(
+    args: Any, delay: bool, n: int, rtol: float, atol: float, dt: float, steps: Any,
+    diff: Any, tail: Any,
+) -> tuple[int, float, int]:  # fmt: skip
+    """The compiled loop of a LinearLaw over samples 0..n-1, in slices of about 0.05 s
+    each, so that Ctrl-C and SIGTERM (which act in Python) stop it within a second;
+    every value the loop carries lives in the arrays, so the numbers are those of one
+    call."""
+    start, size = 0, 16
+    status, reached = 0, 0
+    while start < n and status == 0:
+        stop = min(n, start + size)
+        began = time.perf_counter()
+        loop: Any = _loop
+        status, dt, reached = loop(*args, True, delay, start, stop, rtol, atol, dt, steps, diff,
+                                   *tail)  # fmt: skip
+        rate = (stop - start) / max(time.perf_counter() - began, 1e-6)
+        size = int(min(max(0.05 * rate, 1), 1 << 20))
+        start = stop
+    return status, dt, reached
 
 
 @dataclass(frozen=True)
@@ -321,6 +362,11 @@ def run_loop(
     if x0.shape != (nx,) or not np.isfinite(x0).all():
         raise ValueError(f"`x0` must be a finite array of shape ({nx},), got {x0.shape}.")
     noise_arr = _noise_array(plant, t, noise, seed, distribution)
+    refuse_jumps(
+        plant, "plant", "the sampled loop integrates it without the branches of f (no "
+        "crossing, no sliding); simulate it with sampledyn.simulate and a ZeroOrderHold of "
+        "the commands.",
+    )  # fmt: skip
     rhs, p = plant.kernel()
     sw, sp, sw_io = switching(plant)
     X = np.zeros((t.shape[0], nx))
@@ -369,7 +415,7 @@ def run_loop(
         kinds = lags = np.zeros(0, dtype=np.int64)
         lo, hi = np.full(nu, -np.inf), np.full(nu, np.inf)
     args = (
-        rhs, readonly(p), sw, readonly(np.asarray(sp, dtype=float)),
+        rhs, no_gradient, readonly(p), sw, readonly(np.asarray(sp, dtype=float)),
         _frozen(np.asarray(sw_io, dtype=np.bool_)), drhs, readonly(np.asarray(dp, dtype=float)),
         readonly(t), X, readonly(noise_arr), Y, cmd, U,
         readonly(gain), readonly(z_ref), readonly(u_ref), _frozen(kinds), _frozen(lags),
@@ -377,10 +423,10 @@ def run_loop(
     )  # fmt: skip
     dt = float(h)
     if law is not None:
-        status, dt, reached = _loop(
-            *args, True, delay, 0, t.shape[0], float(rtol), float(atol), dt, steps, diff,
-            restart, zeros1, zeros2, readonly(x_lo), readonly(x_hi),
-        )  # fmt: skip
+        tail = (restart, zeros1, zeros2, readonly(x_lo), readonly(x_hi))
+        status, dt, reached = _in_slices(
+            args, delay, t.shape[0], float(rtol), float(atol), dt, steps, diff, tail
+        )
     else:
         status, reached = 0, 0
         for n in range(t.shape[0]):
@@ -407,7 +453,9 @@ def run_loop(
             f"the sampled loop left the state envelope at t={t[reached]:g} s ({', '.join(out)})."
         )
     if status != 0:
-        what = "step size underflow" if status == 1 else "NaN or inf in the state"
+        what = {1: "step size underflow", 4: "the integration stalled"}.get(
+            status, "NaN or inf in the state"
+        )
         raise IntegrationError(
             f"{what} in the sampled loop at t={t[reached]:g} s: the closed loop may "
             "diverge there (check the controller's gain and the sampling period)."

@@ -3,10 +3,15 @@
 A rule that predicts x_{n+1} from a history of samples is a discrete-time system once
 its history is its state: for AB_s, z_n = (x_n, f_{n-1}, ..., f_{n-s+1}) (a proper
 system of dimension nx s); for ABu_s, z_n = (x_n, ..., x_{n-s+1}); for Euler, RK_s and
-Tustin, z_n = x_n. Which blocks z holds (``state_layout``), the step itself
-(``step_source``, ``step_blocks``), its exact linearisation (``linearize``) and the z of
-a constant history (``steady_state``) are facts of the rule and live on the method
-object; this module composes them with a model into a :class:`DiscreteModel`.
+Tustin and ZOH, z_n = x_n. A rule that is such a system
+(:class:`~sampledyn.methods.DiscreteTimeSystem`) holds its step as data,
+``rule.discrete_step``: which blocks z holds (``layout``), the compiled step
+(``source()``) and the model kernels it calls (``kernels``), the step in vector
+arithmetic (``blocks``), its exact linearisation (``linearize``) and the z of a
+constant history (``steady_state``), all derived from the rule's coefficients or
+tableau (:class:`~sampledyn.methods.StepProgram`); this module composes them with a
+model into a :class:`DiscreteModel`. ZOH's step is the exact flow over one interval:
+the ``flow`` kernel bound here runs the simulator's compiled interval integrator.
 
 The step and the k-step rollout are compiled against the model's kernel (a generated,
 disk-cached module with the model's rhs inlined: no function-pointer dispatch), so one
@@ -21,17 +26,17 @@ from typing import Any
 
 import numpy as np
 
-# The estimation layer registers its rules (Ee, ABe<s>) into the registry, so that
-# naming one here gives the explanation below rather than "unknown method".
-from .. import estimate as _estimate  # noqa: F401
 from .._trajectory import Trajectory
-from ..methods import get_method, uniform_step
+from ..methods import DiscreteTimeSystem, Estimator, get_method, uniform_step
 from ..models import (
     JacobianUnavailableError,
+    jump_surface_at,
     kernel_import_line,
     load_generated_module,
+    refuse_jumps,
 )
 from ..predict import check_measured
+from ..simulate import switching
 
 __all__ = ["DiscreteModel", "check_rule", "discretize"]
 
@@ -51,6 +56,49 @@ rhs = njit(inline="always", error_model="numpy")(_rhs_kernel.py_func)
 
 _BIND_JAC = """
 jac = njit(inline="always", error_model="numpy")(_jac_kernel.py_func)
+"""
+
+# The exact flow over one interval with the input held (ZOH's step): the simulator's
+# compiled Dormand-Prince 8 interval integrator with kink location, on the model's
+# kernel and switching function; NaN where it fails.
+_BIND_FLOW = """
+from sampledyn.simulate import integrate_intervals as _integrate_intervals
+from sampledyn.simulate import no_gradient as _no_gradient
+
+# The integrator takes the model's kernels as function pointers, which numba's disk
+# cache cannot keep: this module compiles in each process.
+CACHE = False
+
+_SW_P = np.array({sp!r}, dtype=np.float64)
+_SW_IO = np.array({io!r}, dtype=np.bool_)
+
+
+@njit(cache=CACHE, error_model="numpy")
+def flow(t, x, u, p, h, rtol, atol, out):
+    nx = x.shape[0]
+    nu = u.shape[0]
+    nodes = np.empty(2)
+    nodes[0] = t
+    nodes[1] = t + h
+    X = np.empty((2, nx))
+    for j in range(nx):
+        X[0, j] = x[j]
+    U = np.empty((2, nu))
+    for j in range(nu):
+        U[0, j] = u[j]
+        U[1, j] = u[j]
+    offset = np.zeros(nu)
+    waves = np.zeros((nu, 0))
+    steps = np.zeros(1, dtype=np.int64)
+    diff = np.empty((1, nx))
+    restart = np.ones(2, dtype=np.bool_)
+    status, _ = _integrate_intervals(
+        _rhs_kernel, _no_gradient, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol,
+        False, 0, 1,
+        h, _sw_kernel, _SW_P, _SW_IO, X, steps, diff, restart,
+    )
+    for j in range(nx):
+        out[j] = X[1, j] if status == 0 else np.nan
 """
 
 # Generic over the rule: z from sampled data (the layout's blocks) and k steps.
@@ -129,28 +177,20 @@ def rollout_f(t, x, u, p, h, k, out):
 """
 
 
-def _rule(method: Any) -> tuple[Any, tuple[tuple[str, int], ...]]:
-    """The rule object and its state layout, or a ValueError saying why the rule is
-    not a discrete-time system."""
+def _rule(method: Any) -> Any:
+    """The rule object, or a ValueError saying why it is not a discrete-time system."""
     rule: Any = get_method(method)
-    if rule.estimates_params:
+    if isinstance(rule, DiscreteTimeSystem):
+        return rule
+    if isinstance(rule, Estimator):
         raise ValueError(
             f"`method` {rule.name!r} estimates the model's parameters on the data it "
             "predicts, so it has no fixed map z+ = F(z, u) to discretize. Estimate "
             "first (sampledyn.estimate), then discretize the fitted model with the "
             "fixed rule, e.g. discretize(result.model, 'AB4', h)."
         )
-    layout_of = getattr(type(rule), "state_layout", None)
-    if layout_of is None:
-        raise ValueError(
-            f"`method` {rule.name!r} does not say which discrete state it keeps (no "
-            "`state_layout`); rules that are discrete-time systems define it."
-        )
-    try:
-        layout = tuple(rule.state_layout)
-    except NotImplementedError as exc:
-        raise ValueError(f"`method` {rule.name!r} cannot be discretized: {exc}") from None
-    return rule, layout
+    why = getattr(rule, "no_discrete_step", "it does not state its step z+ = F(z, u)")
+    raise ValueError(f"`method` {rule.name!r} cannot be discretized: {why}.")
 
 
 def check_rule(method: Any) -> None:
@@ -160,17 +200,17 @@ def check_rule(method: Any) -> None:
     _rule(method)
 
 
-def _module(model: Any, rule: Any, layout: tuple[tuple[str, int], ...]) -> tuple[Any, Any]:
-    """The generated module of (model kernel, rule) and the parameter array p."""
+def _module(model: Any, step: Any) -> tuple[Any, Any]:
+    """The generated module of (model kernel, rule's step) and the parameter array p."""
     rhs, p = model.kernel()
-    needs_jac = "jac(" in rule.step_source()
+    needs_jac = "jac" in step.kernels
     jac = None
     if needs_jac:
         try:
             jac, p_jac = model.jacobian_kernel()
         except JacobianUnavailableError as exc:
             raise ValueError(
-                f"{rule.name} solves an implicit step with the model's compiled Jacobian "
+                f"the step solves an implicit stage with the model's compiled Jacobian "
                 f"kernel, and {type(model).__name__} has none ({exc}). Use an explicit "
                 "rule (E, AB<s>, ABu<s>, RK<s>) for this model."
             ) from None
@@ -179,32 +219,29 @@ def _module(model: Any, rule: Any, layout: tuple[tuple[str, int], ...]) -> tuple
                 f"{type(model).__name__}: its rhs and Jacobian kernels take different "
                 "parameter arrays; the compiled step needs one."
             )
+    layout = step.layout
     kinds = [0 if kind == "x" else 1 for kind, _ in layout]
     lags = [int(lag) for _, lag in layout]
     rollout = _ROLLOUT.format(kinds=kinds, lags=lags, history=max(lags) + 1)
-    if _uses_f_table(rule, layout):
+    if step.takes_f0:
         rollout += _ROLLOUT_F
-    body = _BIND + (_BIND_JAC if needs_jac else "") + rule.step_source() + rollout
-    rhs_line = kernel_import_line(rhs, "_rhs_kernel")
-    jac_line = kernel_import_line(jac, "_jac_kernel") if needs_jac else ""
-    if rhs_line is not None and jac_line is not None:
-        source = _HEADER + rhs_line + "\n" + jac_line + "\n" + body
+    body = _BIND + (_BIND_JAC if needs_jac else "")
+    kernels = {"_rhs_kernel": rhs, **({"_jac_kernel": jac} if needs_jac else {})}
+    if "flow" in step.kernels:
+        refuse_jumps(
+            model, "model", "the exact-flow step integrates one interval without the "
+            "branches of f; use sampledyn.simulate for its exact samples.",
+        )  # fmt: skip
+        sw, sp, io = switching(model)
+        body += _BIND_FLOW.format(sp=[float(v) for v in sp], io=[bool(v) for v in io])
+        kernels["_sw_kernel"] = sw
+    body += step.source() + rollout
+    lines = [kernel_import_line(k, alias) for alias, k in kernels.items()]
+    if all(line is not None for line in lines):
+        source = _HEADER + "\n".join(str(line) for line in lines) + "\n" + body
         return load_generated_module(source, kind="discrete"), p
     # kernels that cannot be imported by name (closures, __main__): this process only
-    injected = {"_rhs_kernel": rhs}
-    if needs_jac:
-        injected["_jac_kernel"] = jac
-    return load_generated_module(_HEADER + body, kind="discrete", globals_=injected), p
-
-
-def _uses_f_table(rule: Any, layout: tuple[tuple[str, int], ...]) -> bool:
-    """True if a rollout over sampled data takes f from one table of f at the samples:
-    z holds f blocks, starts with x_n, and the rule's step takes f0 (``step_f``)."""
-    return (
-        any(kind == "f" for kind, _ in layout)
-        and layout[0] == ("x", 0)
-        and "def step_f(" in rule.step_source()
-    )
+    return load_generated_module(_HEADER + body, kind="discrete", globals_=kernels), p
 
 
 def _finite(v: np.ndarray, name: str) -> None:
@@ -234,8 +271,11 @@ class DiscreteModel:
     ----------
     model : Model
         The continuous-time model x' = f(t, x, u).
-    method : Method
-        The rule (its ``state_layout`` says what z holds).
+    method : DiscreteTimeSystem
+        The rule.
+    step_data : DiscreteStep
+        Its step as data (``method.discrete_step``: layout, compiled source, blocks,
+        linearisation, steady state).
     h : float
         Sampling period (s).
     delay : bool
@@ -250,18 +290,19 @@ class DiscreteModel:
     """
 
     def __init__(self, model: Any, method: Any, h: float, *, delay: bool = False) -> None:
-        rule, layout = _rule(method)
+        rule = _rule(method)
         if not isinstance(delay, bool | np.bool_):
             raise TypeError(f"`delay` must be True or False, got {delay!r}.")
         self.model = model
         self.method = rule
+        self.step_data = rule.discrete_step
         self.h = _check_h(h)
         self.delay = bool(delay)
-        self.layout = layout
+        self.layout = tuple(self.step_data.layout)
         self.nx = int(model.nx)
         self.nu = int(model.nu)
-        self.history = max(lag for _, lag in layout) + 1
-        self.nz = len(layout) * self.nx + (self.nu if self.delay else 0)
+        self.history = max(lag for _, lag in self.layout) + 1
+        self.nz = len(self.layout) * self.nx + (self.nu if self.delay else 0)
         self._mod: Any = None
         self._p: Any = None
         self._step: Any = None
@@ -274,7 +315,7 @@ class DiscreteModel:
     # ------------------------------------------------------------------ kernels
     def _kernels(self) -> Any:
         if self._mod is None:
-            self._mod, p = _module(self.model, self.method, self.layout)
+            self._mod, p = _module(self.model, self.step_data)
             self._p = np.ascontiguousarray(p, dtype=float)
             self._step = compiled_kernel(self._mod, "step")
         return self._mod
@@ -467,7 +508,7 @@ class DiscreteModel:
             )
         _finite(x, "x")
         _finite(u, "u")
-        z = np.asarray(self.method.steady_state(self.model, x, u, t), dtype=float)
+        z = np.asarray(self.step_data.steady_state(self.model, x, u, t), dtype=float)
         return np.concatenate([z, u]) if self.delay else z
 
     def linearize(self, z: Any, u: Any, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -483,13 +524,23 @@ class DiscreteModel:
         ------
         JacobianUnavailableError
             if the model has no df/dx or df/du.
+        ValueError
+            at a state on a switching surface where f jumps (no df/dx exists there).
         """
         z, u = self._vectors(z, u)
         _finite(z, "z")
         _finite(u, "u")
         c = self._core
+        applied_u = z[self._core :] if self.delay else u
+        surface = jump_surface_at(self.model, float(t), z[: self.nx], applied_u)
+        if surface is not None:
+            raise ValueError(
+                f"`z` puts the state on the switching surface {surface} = 0, across which f "
+                "jumps: f has no Jacobian there, so the model has no linearisation at this "
+                "point. Linearise at a state off the surface (on the side the motion is)."
+            )
         applied = z[c:] if self.delay else u
-        A, B = self.method.linearize(self.model, float(t), z[:c], applied, self.h)
+        A, B = self.step_data.linearize(self.model, float(t), z[:c], applied, self.h)
         if not self.delay:
             return np.asarray(A), np.asarray(B)
         Ad = np.zeros((self.nz, self.nz))
@@ -572,7 +623,8 @@ def discretize(model: Any, method: Any, h: float, *, delay: bool = False) -> Dis
         A compiled continuous-time model (vehicle, symbolic, AUV-like, closed loop,
         function model).
     method : str or Method
-        A registered rule with a discrete state: "E", "AB<s>", "ABu<s>", "RK<s>", "T".
+        A rule that is a discrete-time system: "E", "AB<s>", "ABu<s>", "RK<s>", "T",
+        "ZOH" (the exact zero-order hold), or such a rule object.
     h : float
         Sampling period (s).
     delay : bool

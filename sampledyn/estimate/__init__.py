@@ -1,5 +1,6 @@
 """Parameter estimation from one-step errors (paper, section 4.2), and the estimated
-rules Ee and ABe_s, which this package registers into the method registry.
+rules Ee and ABe_s (the method registry lists them as lazy entries that import this
+package on first use).
 
 * :func:`estimate`: parameters minimising an l_p norm of a fixed rule's one-step
   errors (exact l_p regression for models linear in their parameters).

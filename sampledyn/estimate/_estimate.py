@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import ab_filter, get_method, uniform_step
+from ..methods import Estimator, Predictor, ab_filter, get_method, get_predictor, uniform_step
 from ..predict import check_measured
 from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
@@ -408,7 +408,7 @@ def estimate(
     check_measured(model, measured)
     p = _check_p(p)
     rule = get_method(structure)
-    if rule.estimates_params:
+    if isinstance(rule, Estimator) or not isinstance(rule, Predictor):
         raise ValueError(
             f"`structure` must be a fixed rule (E, AB<s>, RK<s>, T), got {rule.name!r}."
         )
@@ -755,5 +755,5 @@ def estimate_and_predict(
         f = result.model.f(measured.t, measured.x, measured.u)
         x_hat = ab_filter(measured.x, f, measured.h, np.asarray(result.weights))
     else:
-        x_hat = np.asarray(get_method(structure).predict(result.model, measured, signal))
+        x_hat = np.asarray(get_predictor(structure).predict(result.model, measured, signal))
     return x_hat, result

@@ -6,8 +6,9 @@ to predict, minimising the l_p norm of the AB_s one-step errors
 object itself holds only settings (frozen); the estimate is returned by
 :meth:`EstimatedAdamsBashforth.estimate` or :func:`sampledyn.estimate_and_predict`.
 
-The family is registered here, in the estimation layer, so the method registry below
-it never reaches up into estimation.
+The method registry lists the family as a lazy entry ("Ee", "ABe<s>" ->
+:func:`estimated_euler`, :class:`EstimatedAdamsBashforth`), imported on first use:
+nothing here writes into the registry below.
 """
 
 from __future__ import annotations
@@ -19,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import ab_coefficients, register_family, warn_if_unstable
+from ..methods import ab_coefficients, warn_if_unstable
 from ._estimate import EstimationResult, estimate_and_predict
 
-__all__ = ["EstimatedAdamsBashforth"]
+__all__ = ["EstimatedAdamsBashforth", "estimated_euler"]
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,7 @@ class EstimatedAdamsBashforth:
         if self.params is not None:
             object.__setattr__(self, "params", tuple(self.params))
 
-    # -- what the rule is (the Method protocol) --------------------------------------
+    # -- what the rule is (the Predictor and Estimator protocols) ---------------------
 
     @property
     def family(self) -> str:
@@ -87,22 +88,8 @@ class EstimatedAdamsBashforth:
         return False
 
     @property
-    def estimates_params(self) -> bool:
-        """True: the parameters are fitted on the data predicted."""
-        return True
-
-    @property
     def sample_weights(self) -> None:
         """None: the rule is AB_s only after its parameters have been fitted."""
-        return None
-
-    @property
-    def first_order_gain(self) -> None:
-        """None: no noise bound, the parameters change with the (noisy) data."""
-        return None
-
-    @property
-    def error_constant(self) -> None:
         return None
 
     @property
@@ -113,28 +100,6 @@ class EstimatedAdamsBashforth:
     @property
     def step_rule(self) -> str:
         return "uniform grid only"
-
-    def _no_bound(self, what: str) -> ValueError:
-        return ValueError(
-            f"{self.name!r} has no {what}: it estimates its parameters on the data, so "
-            "they change with the noise; use the fixed rule "
-            f"{self.structure!r} with the estimated model (EstimationResult.model)."
-        )
-
-    def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
-        """Raises ValueError: estimated rules have no noise bound."""
-        raise self._no_bound("noise gain")
-
-    def prediction_jacobians(
-        self, model: Any, data: Trajectory, signal: Any = None, *, cache: Any = None
-    ) -> np.ndarray:
-        """Raises ValueError: the prediction depends on every sample through the fit."""
-        raise self._no_bound("prediction Jacobians")
-
-    def truncation_differences(
-        self, model: Any, data: Trajectory, signal: Any = None, *, cache: Any = None
-    ) -> None:
-        return None
 
     # -- estimation --------------------------------------------------------------------
 
@@ -187,13 +152,6 @@ class EstimatedAdamsBashforth:
         return self.estimate_and_predict(model, data, signal)[0]
 
 
-register_family(
-    "Ee", r"Ee", lambda: EstimatedAdamsBashforth(1, name="Ee"), "estimated Euler (= ABe1)"
-)
-register_family(
-    "ABe<s>",
-    r"ABe(\d+)",
-    EstimatedAdamsBashforth,
-    "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1",
-    default_max_order=6,
-)
+def estimated_euler() -> EstimatedAdamsBashforth:
+    """Ee: estimated Euler, ABe1 under its own name."""
+    return EstimatedAdamsBashforth(1, name="Ee")

@@ -303,6 +303,63 @@ def _curves(
     )
 
 
+def _checked_arguments(
+    model: Any, h: Any, methods: Any, rank_by: Any, seeds: Any, base_seed: Any, workers: Any
+) -> list[Any]:
+    """The methods of :func:`advise`, its other arguments checked (named)."""
+    if isinstance(model, Vehicle):
+        check_vehicle(model, "model")
+    else:
+        state_blocks(model.state_units, "model")
+    if rank_by not in RANK_BY:
+        raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
+    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
+        raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
+    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
+        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
+    ms = [supported_method(m, "methods") for m in methods]
+    if not ms:
+        raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):  # fmt: skip
+        raise ValueError(f"`workers` must be an int >= 1 (or None: this process), got {workers!r}.")
+    return ms
+
+
+def _check_run_length(ms: list[Any], h: float, T: Any) -> None:
+    """The reference run of :func:`advise` is long enough for every rule's history."""
+    if not (isinstance(T, int | float) and math.isfinite(T) and T > 0):
+        raise ValueError(
+            f"reference run length `T` must be a finite number of seconds > 0, got {T!r}."
+        )
+    longest = max(ms, key=lambda m: m.history)
+    t_min = (samples_needed(ms) - 1) * h
+    if T < t_min:
+        raise ValueError(
+            f"reference run length `T` = {T:g} s is too short for h = {h:g} s: "
+            f"{longest.name} needs {longest.history} samples of history and 3 "
+            f"predictions; give T >= {t_min:g} s."
+        )
+
+
+def _reference_run(
+    model: Any, signal: Any, reference: Any, h: float, T: float, x0: Any, h_max: Any
+) -> tuple[Trajectory, Any]:
+    """The exact samples the curves are computed on (simulated, or the reference
+    given) and the multiples k of their period that the curves visit."""
+    if reference is None:
+        h0, ks = h_grid(h, h_max=h_max)
+        n_int = max(1, round(T / h))
+        return exact_samples(model, signal, n_int * h, h0, x0), ks
+    base = exact_reference(reference)
+    m_ratio = period_ratio(h, base.h)
+    top = max(2.0, 4.0 * h) if h_max is None else h_max
+    grid = np.geomspace(1, max(m_ratio, top / base.h), 25)
+    return base, sorted({int(round(k)) for k in grid} | {m_ratio})
+
+
 def advise(
     model: Any,
     h: float,
@@ -378,55 +435,16 @@ def advise(
         for a ``reference`` or ``domain`` of the wrong type.
     """
     vehicle = isinstance(model, Vehicle)
-    if vehicle:
-        check_vehicle(model, "model")
-    else:
-        state_blocks(model.state_units, "model")
-    if rank_by not in RANK_BY:
-        raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
-    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
-    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
-        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
-    ms = [supported_method(m, "methods") for m in methods]
-    if not ms:
-        raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):  # fmt: skip
-        raise ValueError(f"`workers` must be an int >= 1 (or None: this process), got {workers!r}.")
+    ms = _checked_arguments(model, h, methods, rank_by, seeds, base_seed, workers)
     if reference is None:
-        if not (isinstance(T, int | float) and math.isfinite(T) and T > 0):
-            raise ValueError(
-                f"reference run length `T` must be a finite number of seconds > 0, got {T!r}."
-            )
-        longest = max(ms, key=lambda m: m.history)
-        t_min = (samples_needed(ms) - 1) * h
-        if T < t_min:
-            raise ValueError(
-                f"reference run length `T` = {T:g} s is too short for h = {h:g} s: "
-                f"{longest.name} needs {longest.history} samples of history and 3 "
-                f"predictions; give T >= {t_min:g} s."
-            )
+        _check_run_length(ms, h, T)
     tol = None if tolerance is None else check_tolerance(tolerance)
     amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
     if domain is not None and not vehicle:
         raise ValueError("`domain` bounds the Jacobians of a 6-DoF vehicle; this model is not.")
-
     if reference is None:
         signal = default_input(model) if signal is None else signal
-        h0, ks = h_grid(h, h_max=h_max_search)
-        n_int = max(1, round(T / h))
-        base = exact_samples(model, signal, n_int * h, h0, x0)
-    else:
-        base = exact_reference(reference)
-        m_ratio = period_ratio(h, base.h)
-        h0 = base.h
-        top = max(2.0, 4.0 * h) if h_max_search is None else h_max_search
-        ks = sorted(
-            {int(round(k)) for k in np.geomspace(1, max(m_ratio, top / h0), 25)} | {m_ratio}
-        )
+    base, ks = _reference_run(model, signal, reference, h, T, x0, h_max_search)
     jac = None
     notes: list[str] = []
     if vehicle:

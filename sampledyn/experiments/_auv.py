@@ -9,20 +9,18 @@ velocity's zero crossings).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
-from ..errors import ERROR_NORMS
-from ..methods import families, get_method
-from ..models import AUVLike
-from .sweep import SweepConfig, check_time_grid, fastest_time_constant, run_study
+from ._studies import StudyDefinition
 
 __all__ = [
+    "FIG2",
+    "FIG3",
     "AUVStudy",
     "auv_config",
-    "fastest_time_constant",
     "fig2_methods",
     "fig3_methods",
     "run_auv_study",
@@ -34,30 +32,53 @@ MASKED_NORMS = {"rms@away_from_jumps": "rms_away_from_jumps", "rms@smooth": "rms
 
 def _multistep(fam: Any) -> bool:
     """A family of orders with a member that uses more than one past sample."""
+    from ..methods import get_method
+
     return fam.ordered and any(get_method(n).history > 1 for n in fam.names())
 
 
+def _predictors(fam: Any) -> bool:
+    """A family whose rules predict on sampled data (not ZOH, a discrete-time system)."""
+    from ..methods import Predictor, get_method
+
+    return isinstance(get_method(fam.names()[0]), Predictor)
+
+
+def _families() -> tuple[Any, ...]:
+    """The registered families of predictors (the figures iterate the whole registry)."""
+    from ..methods import families
+
+    return tuple(fam for fam in families() if _predictors(fam))
+
+
 def fig2_methods() -> tuple[str, ...]:
-    """Fig. 2's rules: every registered multistep family (AB_s, ABu_s, ABe_s, ...),
-    orders 1 to the family's default largest one, in registration order."""
-    return tuple(n for fam in families() if _multistep(fam) for n in fam.names())
+    """Fig. 2's rules: every registered multistep family of predictors (AB_s, ABu_s,
+    ABe_s, ...), orders 1 to the family's default largest one, in registration order."""
+    return tuple(n for fam in _families() if _multistep(fam) for n in fam.names())
 
 
 def fig3_methods() -> tuple[str, ...]:
-    """Fig. 3's rules: every registered single rule (E, T, Ee, ...) and every one-step
-    family of orders (RK_s), in registration order."""
-    return tuple(n for fam in families() if not _multistep(fam) for n in fam.names())
+    """Fig. 3's rules: every registered single predictor (E, T, Ee, ...) and every
+    one-step family of orders (RK_s), in registration order."""
+    return tuple(n for fam in _families() if not _multistep(fam) for n in fam.names())
+
+
+def _auv_like() -> Any:
+    from ..models import AUVLike
+
+    return AUVLike()
 
 
 @dataclass(frozen=True)
 class AUVStudy:
-    """Settings of the AUV-like study.
+    """Settings of the AUV-like study (the grid values are checked by the engine's
+    :class:`~sampledyn.experiments.sweep.SweepConfig`, the rest here).
 
     Attributes
     ----------
     methods : tuple of str
         Registry names (default :func:`fig2_methods`).
-    hold_ratios : tuple of int
+    ratios : tuple of int
         h_u / h values, one curve each.
     h : float
         Sampling period (s). The default 0.01 s is about 1/30 of the fastest local time
@@ -68,45 +89,53 @@ class AUVStudy:
         Errors are measured on t >= after (s), past the transient from x0 = 0.
     seed : int
         Seed of the multilevel input.
+    norm : str
+        The norm of the first panel and table (:data:`sampledyn.errors.ERROR_NORMS`).
+    low, high : float
+        Range of the input levels.
     x0 : tuple of float
         Initial state (x, y).
+    model : Model
+        The model (default the AUV-like system).
     """
 
     methods: tuple[str, ...] = field(default_factory=fig2_methods)
-    hold_ratios: tuple[int, ...] = (1, 2, 5, 10, 20, 50, 100)
+    ratios: tuple[int, ...] = (1, 2, 5, 10, 20, 50, 100)
     h: float = 0.01
     T: float = 200.0
     after: float = 20.0
     seed: int = 0
+    norm: str = "rms"
     low: float = -10.0
     high: float = 10.0
     x0: tuple[float, float] = (1.0, 0.0)
-    model: Any = field(default_factory=AUVLike)
+    model: Any = field(default_factory=_auv_like)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.h, int | float) and np.isfinite(self.h) and self.h > 0):
-            raise ValueError(f"sampling period `h` must be > 0 s, got {self.h}.")
-        for r in self.hold_ratios:
-            if not isinstance(r, int | np.integer) or r < 1:
-                raise ValueError(f"`hold_ratios` must be positive integers, got {r!r}.")
-        check_time_grid(self.T, self.after, self.h)
-        if (
-            isinstance(self.seed, bool)
-            or not isinstance(self.seed, int | np.integer)
-            or self.seed < 0
-        ):
+        from ..errors import ERROR_NORMS
+
+        for r in self.ratios:
+            if isinstance(r, bool) or not isinstance(r, int) or r < 1:
+                raise ValueError(f"`ratios` must be positive integers, got {r!r}.")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(
                 f"`seed` (--seed) of the multilevel input must be an int >= 0, got {self.seed!r}."
             )
+        if self.norm not in ERROR_NORMS:
+            raise ValueError(f"`norm` must be one of {', '.join(ERROR_NORMS)}, got {self.norm!r}.")
 
 
-def auv_config(study: AUVStudy) -> SweepConfig:
-    """The study as a grid of the engine: one multilevel input per h_u/h, no noise, the
-    norms of :data:`sampledyn.errors.ERROR_NORMS` and the two masked rms."""
+def auv_config(study: AUVStudy) -> Any:
+    """The study as a grid of the engine (a checked
+    :class:`~sampledyn.experiments.sweep.SweepConfig`): one multilevel input per h_u/h,
+    no noise, the norms of :data:`sampledyn.errors.ERROR_NORMS` and the two masked rms."""
+    from ..errors import ERROR_NORMS
+    from .sweep import SweepConfig
+
     inputs = tuple(
         {"name": "multilevel", "low": study.low, "high": study.high,
          "hold": ratio * study.h, "seed": study.seed}
-        for ratio in study.hold_ratios
+        for ratio in study.ratios
     )  # fmt: skip
     return SweepConfig(
         vehicle=str(getattr(study.model, "name", "auv_like")),
@@ -124,8 +153,61 @@ def auv_config(study: AUVStudy) -> SweepConfig:
     )
 
 
+class AUVStudies(StudyDefinition):
+    """Figs. 2 and 3 (the same study; ``methods`` default to each figure's rules)."""
+
+    settings_type = AUVStudy
+
+    def __init__(self, name: str, default_methods: Any) -> None:
+        self.name = name
+        self._default_methods = default_methods
+
+    def settings(self, **values: Any) -> AUVStudy:
+        values.setdefault("methods", self._default_methods())
+        return AUVStudy(**values)
+
+    def configs(self, settings: AUVStudy) -> tuple[Any, ...]:
+        return (auv_config(settings),)
+
+    def rows(self, settings: AUVStudy, results: Sequence[Any]) -> list[dict[str, Any]]:
+        """One row per (hold ratio, method) (see :func:`run_auv_study`)."""
+        from ..methods import get_predictor
+
+        (result,) = results
+        rows: dict[tuple[str, str], dict[str, Any]] = {}
+        for c in result.cells:
+            tconf = result.study.trajectories[c["traj_key"]]
+            key = (c["traj_key"], c["method"])
+            if key not in rows:
+                method = get_predictor(c["method"])
+                ratio = int(round(tconf["input"]["hold"] / settings.h))
+                rows[key] = {"hold_ratio": ratio, "method": method.name, "order": int(method.order)}
+            row = rows[key]
+            column = MASKED_NORMS.get(c["norm"], c["norm"])
+            ok = c["status"] == "ok"
+            row[column] = float(c["err_all"]) if ok else math.nan
+            if not ok:
+                row.setdefault("_notes", []).append(f"{column}: {c['error']}")
+        out = []
+        for (traj_key, _m), row in rows.items():
+            t = result.trajectories[traj_key]
+            notes = row.pop("_notes", [])
+            row.update(
+                h=settings.h, T=settings.T, after=settings.after, seed=settings.seed,
+                certificate=float(t["certificate"]), tau_min=float(t["summary"]["tau_min"]),
+                notes="; ".join(notes),
+            )  # fmt: skip
+            out.append(row)
+        return out
+
+
+#: The registered studies ``reproduce fig2`` and ``fig3``.
+FIG2 = AUVStudies("fig2", fig2_methods)
+FIG3 = AUVStudies("fig3", fig3_methods)
+
+
 def run_auv_study(
-    study: AUVStudy = AUVStudy(),
+    study: AUVStudy | None = None,
     *,
     progress: bool = False,
     store: Any = None,
@@ -136,6 +218,7 @@ def run_auv_study(
     Parameters
     ----------
     study : AUVStudy
+        Default ``AUVStudy()`` (Fig. 2's rules).
     progress : bool
         Show a progress bar.
     store : path, optional
@@ -154,38 +237,5 @@ def run_auv_study(
     per-interval flow error of the samples), ``tau_min`` (fastest local time
     constant, s) and ``notes`` (why a norm is NaN, "" otherwise).
     """
-    cfg = auv_config(study)
-    options: dict[str, Any] = {"progress": progress}
-    if workers is not None and workers > 1:
-        options["workers"] = workers
-    result = run_study(cfg, store, **options)
-    trajs = result.trajectories
-    rows: dict[tuple[str, str], dict[str, Any]] = {}
-    for c in result.cells:
-        tconf = result.study.trajectories[c["traj_key"]]
-        ratio = int(round(tconf["input"]["hold"] / study.h))
-        key = (c["traj_key"], c["method"])
-        if key not in rows:
-            method = get_method(c["method"])
-            rows[key] = {"hold_ratio": ratio, "method": method.name, "order": int(method.order)}
-        row = rows[key]
-        column = MASKED_NORMS.get(c["norm"], c["norm"])
-        ok = c["status"] == "ok"
-        row[column] = float(c["err_all"]) if ok else float("nan")
-        if not ok:
-            row.setdefault("_notes", []).append(f"{column}: {c['error']}")
-    out = []
-    for (traj_key, _m), row in rows.items():
-        t = trajs[traj_key]
-        notes = row.pop("_notes", [])
-        row.update(
-            h=study.h,
-            T=study.T,
-            after=study.after,
-            seed=study.seed,
-            certificate=float(t["certificate"]),
-            tau_min=float(t["summary"]["tau_min"]),
-            notes="; ".join(notes),
-        )
-        out.append(row)
-    return out
+    settings = AUVStudy() if study is None else study
+    return FIG2.run(settings, store=store, workers=workers, progress=progress).rows

@@ -9,8 +9,9 @@ the trim for a depth / heading / surge hold, and run against the exact plant
 saturating at n_max inside the plant) with the paper's measurement noise. Measured:
 the tracking residual set (95th and 100th percentile of |depth|, |heading| and |surge|
 error after the transient) and the control effort. A design on the exact zero-order
-hold linearisation (``ZOH``: the matrix exponential, i.e. a perfect one-step model of
-the linearised plant) is the reference row.
+hold (the registered rule ``ZOH``, :class:`sampledyn.methods.ExactHold`: its
+linearisation is the matrix exponential, a perfect one-step model of the linearised
+plant) is the reference row.
 
 A run that leaves the envelope (roll or pitch beyond 80 deg, a velocity beyond 5 m/s or
 5 rad/s, depth 50 m off) stops there and is reported as diverged: such a loop tumbles
@@ -36,15 +37,15 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..discretize import LinearLaw, check_rule, discretize, run_loop
 from ..methods import get_method
+from ._studies import StudyDefinition
 from .sweep import (
     CELL_ERRORS,
     CellKind,
@@ -52,9 +53,6 @@ from .sweep import (
     SimResult,
     SweepConfig,
     SweepConfigError,
-    backend_options,
-    register_cell_kind,
-    run_study,
     warning_text,
     worker_name,
 )
@@ -62,6 +60,7 @@ from .sweep import (
 __all__ = [
     "CLOSED_LOOP",
     "CLOSED_LOOP_METHODS",
+    "CLOSED_LOOP_STUDY",
     "ClosedLoopCells",
     "ClosedLoopStudy",
     "design_lqr",
@@ -71,6 +70,9 @@ __all__ = [
 ]
 
 CLOSED_LOOP_METHODS = ("E", "AB2", "AB4", "ABu4", "RK4", "T")
+# The reference design, and the rule whose loop's motion the one-step errors are
+# measured on: the exact zero-order hold.
+REFERENCE = "ZOH"
 # Tracked outputs: state index, name, unit.
 TRACKED = ((2, "depth", "m"), (5, "heading", "rad"), (6, "surge", "m/s"))
 # States kept in the design (all but the horizontal positions x, y).
@@ -89,19 +91,23 @@ _OFFSET = {"depth": -0.5, "heading": -0.2}  # m, rad
 class ClosedLoopStudy:
     """Settings of the closed-loop study (defaults: the issue's grid).
 
+    The grid values are checked by the engine's
+    :class:`~sampledyn.experiments.sweep.SweepConfig` (one per vehicle), once.
+
     Attributes
     ----------
-    vehicles : tuple of str
+    vehicle : tuple of str
         Built-in vehicle names or vehicle files.
     methods : tuple of str
-        Rules the LQR is designed on; "ZOH" adds the exact zero-order-hold design.
-    h_values : tuple of float
+        Rules the LQR is designed on (discrete-time systems); "ZOH" is the design on
+        the exact zero-order hold.
+    h : tuple of float
         Sampling periods (s).
     noise_pairs : tuple of (eta %, v %)
         Measurement noise levels (:func:`sampledyn.add_noise` amplitudes).
     seeds : int
         Noise realisations per noisy cell (the noise-free cell runs once).
-    T, transient : float
+    T, after : float
         Duration of each run and the time after which the residual set is measured (s).
     surge, depth, heading : float
         Set point (m/s, m, rad). The run starts at the trim offset by ``offset``.
@@ -111,8 +117,8 @@ class ClosedLoopStudy:
         Positive buoyancy in percent of the weight (the paper's +1 %).
     delay : bool
         Apply each command one sample late (designs then include the delay).
-    base_seed : int
-        Root of the noise seeds: seed k draws from SeedSequence([base_seed, k]).
+    seed : int
+        Root of the noise seeds: seed k draws from SeedSequence([seed, k]).
     distribution : str
         Noise distribution, "uniform" (the paper's) or "gaussian".
     rtol : float
@@ -120,44 +126,22 @@ class ClosedLoopStudy:
         samples; the residual sets measured are >= 1e-7.
     """
 
-    vehicles: tuple[str, ...] = ("rexrov", "bluerov2_heavy")
-    methods: tuple[str, ...] = ("ZOH", *CLOSED_LOOP_METHODS)
-    h_values: tuple[float, ...] = (0.1, 0.5)
+    vehicle: tuple[str, ...] = ("rexrov", "bluerov2_heavy")
+    methods: tuple[str, ...] = (REFERENCE, *CLOSED_LOOP_METHODS)
+    h: tuple[float, ...] = (0.1, 0.5)
     noise_pairs: tuple[tuple[float, float], ...] = ((0, 0), (2, 2), (10, 10), (20, 20))
     seeds: int = 5
     T: float = 600.0
-    transient: float = 100.0
+    after: float = 100.0
     surge: float = _SETPOINT["surge"]
     depth: float = _SETPOINT["depth"]
     heading: float = _SETPOINT["heading"]
     offset: tuple[float, float] = (_OFFSET["depth"], _OFFSET["heading"])
     buoyancy_pct: float = 1.0
     delay: bool = False
-    base_seed: int = 0
+    seed: int = 0
     distribution: str = "uniform"
     rtol: float = 1e-10
-
-    def __post_init__(self) -> None:
-        check_run(self.T, self.transient, "transient", self.seeds, self.base_seed)
-        for name in self.methods:
-            if name != "ZOH":
-                check_rule(name)  # the design needs the rule's discrete-time model
-
-
-def check_run(T: Any, after: Any, after_name: str, seeds: Any, base_seed: Any) -> None:
-    """The run length, the measured window and the seeds of a controller study."""
-    if isinstance(T, bool) or not isinstance(T, int | float) or not (math.isfinite(T) and T > 0):
-        raise ValueError(f"run length `T` must be a number of seconds > 0, got {T!r}.")
-    if isinstance(after, bool) or not isinstance(after, int | float) or not 0 <= after < T:
-        raise ValueError(
-            f"`{after_name}` (--after) = {after!r} s must be in [0, T = {T:g} s): the "
-            "residuals are measured from there to the end of the run; give a smaller "
-            "value or a longer T."
-        )
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
-    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
-        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
 
 
 def trim(vehicle: Any, surge: float, depth: float, heading: float) -> tuple[np.ndarray, np.ndarray]:
@@ -222,20 +206,6 @@ def _dlqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndar
     return np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
 
 
-def _zoh(vehicle: Any, x: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact zero-order-hold discretisation of the linearisation (Van Loan's block
-    exponential)."""
-    from scipy.linalg import expm
-
-    A = vehicle.jacobian(0.0, x, u)
-    B = vehicle.input_jacobian(0.0, x, u)
-    n, m = B.shape
-    M = np.zeros((n + m, n + m))
-    M[:n, :n], M[:n, n:] = A, B
-    E = expm(M * h)
-    return E[:n, :n], E[:n, n:]
-
-
 @dataclass(frozen=True)
 class Design:
     """One LQR design: the law, the closed-loop spectral radius on its own model
@@ -289,24 +259,16 @@ def design_lqr(
     vehicle: Any, method: str, h: float, x_trim: np.ndarray, u_trim: np.ndarray, *, delay=False
 ) -> Design:
     """The discrete LQR of the hold designed on ``method``'s discrete-time model of
-    ``vehicle`` at h ("ZOH": on the exact zero-order-hold linearisation, state x).
+    ``vehicle`` at h ("ZOH": on the exact zero-order hold, whose linearisation is the
+    matrix exponential).
 
     u_n = u* - K (z_n - z*): z* is the model's steady state at the trim (x*, u*), K the
     LQR gain of the reduced linearisation (x, y dropped) with Bryson weights on the
     current state and the thrusters (the same Q, R for every rule).
     """
-    d = discretize(vehicle, "RK4" if method == "ZOH" else method, h, delay=delay)
+    d = discretize(vehicle, method, h, delay=delay)
     z_star = d.steady_state(x_trim, u_trim)
-    if method == "ZOH":
-        Az, Bz = _zoh(vehicle, x_trim, u_trim, h)
-        if delay:
-            A = np.zeros((d.nz, d.nz))
-            A[:12, :12], A[:12, 12:] = Az, Bz
-            B = np.zeros((d.nz, d.nu))
-            B[12:] = np.eye(d.nu)
-            Az, Bz = A, B
-    else:
-        Az, Bz = d.linearize(z_star, u_trim)
+    Az, Bz = d.linearize(z_star, u_trim)
     keep = _reduced_indices(d)
     A, B = Az[np.ix_(keep, keep)], Bz[keep]
     Q, R = _weights(d, vehicle)
@@ -317,7 +279,8 @@ def design_lqr(
     law = LinearLaw(d, gain, z_star, u_trim)
     F = vehicle.jacobian(0.0, x_trim, u_trim)
     G = vehicle.input_jacobian(0.0, x_trim, u_trim)
-    rho_true = _true_radius(law, *_zoh(vehicle, x_trim, u_trim, h), F, G)
+    exact = discretize(vehicle, REFERENCE, h).linearize(x_trim, u_trim)
+    rho_true = _true_radius(law, *exact, F, G)
     return Design(method, float(h), law, rho, rho_true)
 
 
@@ -370,15 +333,15 @@ def _one_step_errors(vehicle: Any, h: float, setup: Any) -> dict[str, float]:
     samples of the noise-free loop of the ZOH design (the same data for every rule)."""
     data = setup.data
     x_trim, u_trim = data["x_trim"], data["u_trim"]
-    ref = design_lqr(vehicle, "ZOH", h, x_trim, u_trim)
+    ref = design_lqr(vehicle, REFERENCE, h, x_trim, u_trim)
     run = run_loop(
         vehicle, ref.law, setup.after, h, data["x0"], envelope=_envelope(x_trim),
         rtol=setup.rtol, atol=setup.rtol,
     )  # fmt: skip
     out = {}
     for method in data["methods"]:
-        if method == "ZOH":
-            continue
+        if get_method(method).order is None:
+            continue  # an exact map (ZOH) has no one-step model error
         err = discretize(vehicle, method, h).rollout(run.exact, 1) - run.exact.x
         err = err[np.isfinite(err).all(axis=1), 2:]
         out[method] = float(np.sqrt(np.mean(np.sum(err * err, axis=1))))
@@ -430,6 +393,12 @@ class ClosedLoopCells(CellKind):
     needs_input = False
     subsample = False
     measure_label = "measures"
+    columns = (
+        *((n, float) for n in ("rho_design", "rho_true", "one_step_rms")),
+        *((n, float) for n in ("depth_p95", "depth_max", "heading_p95", "heading_max",
+                               "surge_p95", "surge_max", "effort_rms", "saturated")),
+        ("outcome", str),
+    )  # fmt: skip
 
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         delay = options.get("delay", False)
@@ -442,11 +411,10 @@ class ClosedLoopCells(CellKind):
         }
 
     def check_method(self, name: str) -> None:
-        if name != "ZOH":
-            check_rule(name)
+        check_rule(name)
 
     def method_order(self, name: str) -> int | None:
-        return None if name == "ZOH" else int(get_method(name).order)
+        return get_method(name).order
 
     def measures(self, config: Any) -> tuple[str, ...]:
         return ("tracking",)
@@ -524,8 +492,7 @@ class ClosedLoopCells(CellKind):
                         }  # fmt: skip
                         try:
                             if method not in laws:
-                                rule = "RK4" if method == "ZOH" else method
-                                model = discretize(vehicle, rule, h, delay=data["delay"])
+                                model = discretize(vehicle, method, h, delay=data["delay"])
                                 laws[method] = LinearLaw(
                                     model, design["gain"], design["z_ref"], data["u_trim"]
                                 )
@@ -537,11 +504,9 @@ class ClosedLoopCells(CellKind):
                             error = f"{type(exc).__name__}: {exc}"[:400]
                 rows.append(
                     {
-                        "key": key, "status": "error" if error else "ok",
-                        "err_eta": math.nan, "err_v": math.nan, "err_all": math.nan,
+                        "key": key, "status": "error" if error else "ok", "values": values,
                         "seconds": time.perf_counter() - t0, "error": error,
                         "warnings": warning_text(caught), "worker": worker_name(),
-                        "result": values,
                     }
                 )  # fmt: skip
         return ChunkResult(chunk.traj_key, shared.meta, rows)
@@ -551,40 +516,37 @@ class ClosedLoopCells(CellKind):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                ref = design_lqr(setup.model, "ZOH", h, data["x_trim"], data["u_trim"])
+                ref = design_lqr(setup.model, REFERENCE, h, data["x_trim"], data["u_trim"])
                 run_loop(setup.model, ref.law, h, h, data["x0"], rtol=setup.rtol)
                 for method in data["methods"]:
-                    if method != "ZOH":
-                        discretize(setup.model, method, h, delay=data["delay"])
+                    discretize(setup.model, method, h, delay=data["delay"])
             except (*CELL_ERRORS, NotImplementedError):
                 pass  # a real failure is reported by the task that meets it
 
 
 CLOSED_LOOP = ClosedLoopCells()
-register_cell_kind(CLOSED_LOOP)
 
 
 def _config(study: ClosedLoopStudy, vehicle: str) -> SweepConfig:
-    """The engine's grid of ``study`` on one vehicle."""
-    return SweepConfig.from_mapping(
-        {
-            "kind": CLOSED_LOOP.name,
-            "vehicle": vehicle,
-            "buoyancy_pct": study.buoyancy_pct,
-            "T": study.T,
-            "after": study.transient,
-            "h": list(study.h_values),
-            "methods": list(study.methods),
-            "noise": [list(p) for p in study.noise_pairs],
-            "seeds": study.seeds,
-            "base_seed": study.base_seed,
-            "distribution": study.distribution,
-            "rtol": study.rtol,
+    """The engine's grid of ``study`` on one vehicle (checked when made)."""
+    return SweepConfig(
+        kind=CLOSED_LOOP.name,
+        vehicle=vehicle,
+        buoyancy_pct=study.buoyancy_pct,
+        T=study.T,
+        after=study.after,
+        h=tuple(study.h),
+        methods=tuple(study.methods),
+        noise=tuple((float(e), float(v)) for e, v in study.noise_pairs),
+        seeds=range(study.seeds) if isinstance(study.seeds, int) else study.seeds,
+        base_seed=study.seed,
+        distribution=study.distribution,
+        rtol=study.rtol,
+        options={
             "setpoint": {"surge": study.surge, "depth": study.depth, "heading": study.heading},
             "offset": {"depth": study.offset[0], "heading": study.offset[1]},
             "delay": study.delay,
         },
-        base_dir=Path.cwd(),
     )
 
 
@@ -592,7 +554,7 @@ def study_order(study: Any) -> Callable[[dict[str, Any]], tuple[int, int, int, i
     """Sort key of an engine cell in a controller study's own order: h, method, noise
     pair (as the study lists them), seed (the order of the rows the studies' own
     loops wrote, which the engine's plan, h-noise-seed-method, is not)."""
-    hs = {float(h): i for i, h in enumerate(study.h_values)}
+    hs = {float(h): i for i, h in enumerate(study.h)}
     methods = {m: i for i, m in enumerate(study.methods)}
     pairs = {(float(e), float(v)): i for i, (e, v) in enumerate(study.noise_pairs)}
 
@@ -605,16 +567,15 @@ def study_order(study: Any) -> Callable[[dict[str, Any]], tuple[int, int, int, i
 def _rows(vehicle: str, study: ClosedLoopStudy, cells: list[dict[str, Any]]) -> list[dict]:
     """The engine's cells as the study's rows, in the study's order."""
     out = []
-    for c in sorted(cells, key=study_order(study)):
-        r = c["result"]
+    for r in sorted(cells, key=study_order(study)):
         row: dict[str, Any] = {
-            "vehicle": vehicle, "method": c["method"], "h": float(c["h"]),
-            "eta_pct": float(c["eta_pct"]), "v_pct": float(c["v_pct"]), "seed": int(c["seed"]),
-            "rho_design": r.get("rho_design", math.nan), "rho_true": r.get("rho_true", math.nan),
-            "one_step_rms": r.get("one_step_rms", math.nan),
+            "vehicle": vehicle, "method": r["method"], "h": float(r["h"]),
+            "eta_pct": float(r["eta_pct"]), "v_pct": float(r["v_pct"]), "seed": int(r["seed"]),
+            "rho_design": r["rho_design"], "rho_true": r["rho_true"],
+            "one_step_rms": r["one_step_rms"],
         }  # fmt: skip
-        if c["status"] != "ok":
-            row["status"] = f"error: {c.get('error') or 'failed'}"
+        if r["status"] != "ok":
+            row["status"] = f"error: {r.get('error') or 'failed'}"
         elif r["outcome"] == "ok":
             row |= {k: r[k] for k in _METRICS}
             row["status"] = "ok"
@@ -622,56 +583,6 @@ def _rows(vehicle: str, study: ClosedLoopStudy, cells: list[dict[str, Any]]) -> 
             row["status"] = r["outcome"]
         out.append(row)
     return out
-
-
-def run_closed_loop_study(
-    study: ClosedLoopStudy,
-    progress: Callable[[str], None] | None = None,
-    *,
-    store: str | os.PathLike[str] | None = None,
-    workers: int | None = None,
-    scheduler: str | None = None,
-    progress_bar: bool = False,
-) -> list[dict[str, Any]]:
-    """Every (vehicle, method, h, noise pair, seed) of ``study``: one row each,
-    computed on the experiment engine (one run per vehicle, cells of kind
-    ``closed_loop``).
-
-    Parameters
-    ----------
-    study : ClosedLoopStudy
-    progress : callable, optional
-        Called with one line per vehicle: what the engine computed and found stored.
-    store : path, optional
-        Results store: the cells are kept there, a rerun (after a kill) computes only
-        the missing ones, and ``sampledyn results`` / ``report`` read them.
-    workers : int, optional
-        Local worker processes (default: this process).
-    scheduler : str, optional
-        Address of a Dask scheduler instead.
-    progress_bar : bool
-        Show the engine's progress bar.
-
-    Returns
-    -------
-    list of dict
-        Row keys: vehicle, method, h, eta_pct, v_pct, seed, rho_design (closed-loop
-        spectral radius on the design model), rho_true (on the exact plant's
-        zero-order-hold linearisation), one_step_rms (the rule's one-step prediction
-        error on the noise-free transient of the ZOH design's loop; NaN for ZOH),
-        depth/heading/surge _p95 and _max (m, rad, m/s, after the transient),
-        effort_rms (rms of the applied rpm minus the trim, in n_max), saturated
-        (fraction of thruster-samples at n_max), status ("ok", "diverged: ..." when
-        the loop left the envelope, or "error: ..." when the design failed).
-    """
-    options = backend_options(workers, scheduler, progress_bar)
-    rows: list[dict[str, Any]] = []
-    for vehicle in study.vehicles:
-        result = run_study(_config(study, vehicle), store, **options)
-        if progress is not None:
-            progress(f"{vehicle}: {result.summary.describe(store)}")
-        rows += _rows(vehicle, study, result.cells)
-    return rows
 
 
 _METRICS = (
@@ -702,3 +613,73 @@ def summarize_closed_loop(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             cell[m] = float(np.mean([r[m] for r in ok])) if len(ok) == len(rs) else float("nan")
         out.append(cell)
     return out
+
+
+class ClosedLoopDefinition(StudyDefinition):
+    """The closed-loop study: one engine run per vehicle."""
+
+    name = "closed-loop"
+    settings_type = ClosedLoopStudy
+
+    def configs(self, settings: ClosedLoopStudy) -> tuple[SweepConfig, ...]:
+        return tuple(_config(settings, vehicle) for vehicle in settings.vehicle)
+
+    def rows(self, settings: ClosedLoopStudy, results: Sequence[Any]) -> list[dict[str, Any]]:
+        return [
+            row
+            for vehicle, result in zip(settings.vehicle, results, strict=True)
+            for row in _rows(vehicle, settings, result.cells)
+        ]
+
+    def summary(self, settings: ClosedLoopStudy, rows: list[dict[str, Any]]) -> list[dict]:
+        return summarize_closed_loop(rows)
+
+
+#: The registered study ``reproduce closed-loop``.
+CLOSED_LOOP_STUDY = ClosedLoopDefinition()
+
+
+def run_closed_loop_study(
+    study: ClosedLoopStudy,
+    progress: Callable[[str], None] | None = None,
+    *,
+    store: str | os.PathLike[str] | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress_bar: bool = False,
+) -> list[dict[str, Any]]:
+    """Every (vehicle, method, h, noise pair, seed) of ``study``: one row each,
+    computed on the experiment engine (one run per vehicle, cells of kind
+    ``closed_loop``; :meth:`StudyDefinition.run` of :data:`CLOSED_LOOP_STUDY`).
+
+    Parameters
+    ----------
+    study : ClosedLoopStudy
+    progress : callable, optional
+        Called with one line per vehicle: what the engine computed and found stored.
+    store : path, optional
+        Results store: the cells are kept there, a rerun (after a kill) computes only
+        the missing ones, and ``sampledyn results`` / ``report`` read them.
+    workers : int, optional
+        Local worker processes (default: this process).
+    scheduler : str, optional
+        Address of a Dask scheduler instead.
+    progress_bar : bool
+        Show the engine's progress bar.
+
+    Returns
+    -------
+    list of dict
+        Row keys: vehicle, method, h, eta_pct, v_pct, seed, rho_design (closed-loop
+        spectral radius on the design model), rho_true (on the exact plant's
+        zero-order-hold linearisation), one_step_rms (the rule's one-step prediction
+        error on the noise-free transient of the ZOH design's loop; NaN for ZOH),
+        depth/heading/surge _p95 and _max (m, rad, m/s, after the transient),
+        effort_rms (rms of the applied rpm minus the trim, in n_max), saturated
+        (fraction of thruster-samples at n_max), status ("ok", "diverged: ..." when
+        the loop left the envelope, or "error: ..." when the design failed).
+    """
+    return CLOSED_LOOP_STUDY.run(
+        study, store=store, workers=workers, scheduler=scheduler, progress=progress_bar,
+        say=progress,
+    ).rows  # fmt: skip

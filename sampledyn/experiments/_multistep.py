@@ -26,16 +26,16 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..discretize import check_rule, discretize
 from ..noise import add_noise
-from ._closed_loop import check_run, study_order
+from ._closed_loop import study_order
+from ._studies import StudyDefinition
 from .sweep import (
     CELL_ERRORS,
     ChunkResult,
@@ -43,15 +43,13 @@ from .sweep import (
     SimResult,
     SweepConfig,
     SweepConfigError,
-    backend_options,
-    register_cell_kind,
-    run_study,
     warning_text,
     worker_name,
 )
 
 __all__ = [
     "MULTISTEP",
+    "MULTISTEP_STUDY",
     "MultistepCells",
     "MultistepStudy",
     "run_multistep_study",
@@ -61,25 +59,24 @@ __all__ = [
 
 @dataclass(frozen=True)
 class MultistepStudy:
-    """Settings (defaults: RexROV, T = 300 s, window from 50 s, K = 20 steps)."""
+    """Settings (defaults: RexROV, T = 300 s, window from 50 s, K = 20 steps); the
+    grid values are checked by the engine's
+    :class:`~sampledyn.experiments.sweep.SweepConfig`, once.
+
+    ``seed`` is the root of the noise seeds (seed k draws from
+    SeedSequence([seed, k])); ``K`` the horizon (the measures are k = 1..K and the
+    free run)."""
 
     vehicle: str = "rexrov"
     methods: tuple[str, ...] = ("E", "AB2", "AB4", "ABu4", "RK4", "T")
-    h_values: tuple[float, ...] = (0.1, 0.5)
+    h: tuple[float, ...] = (0.1, 0.5)
     noise_pairs: tuple[tuple[float, float], ...] = ((0, 0), (2, 2), (10, 10), (20, 20))
     seeds: int = 3
     T: float = 300.0
     after: float = 50.0
     K: int = 20
     buoyancy_pct: float = 1.0
-    base_seed: int = 0
-
-    def __post_init__(self) -> None:
-        check_run(self.T, self.after, "after", self.seeds, self.base_seed)
-        if isinstance(self.K, bool) or not isinstance(self.K, int) or self.K < 1:
-            raise ValueError(f"horizon `K` must be an int >= 1, got {self.K!r}.")
-        for name in self.methods:
-            check_rule(name)  # rollouts run the rule's discrete-time model
+    seed: int = 0
 
 
 def _rms_norm(err: np.ndarray) -> float:
@@ -122,6 +119,8 @@ class MultistepCells(PredictionCells):
     option_keys = ("horizon",)
     subsample = False
     measure_label = "horizons"
+    measure_name = "horizon"
+    columns = (("err_eta", float), ("err_v", float), ("k", int), ("diverged", bool))
 
     def check_method(self, name: str) -> None:
         check_rule(name)
@@ -167,15 +166,15 @@ class MultistepCells(PredictionCells):
                 seconds = (time.perf_counter() - t0) / len(cells)
                 for key, measure in cells:
                     pos, vel = found.get(measure, (math.nan, math.nan))
-                    result = {} if error else {
-                        "k": _horizon(measure), "diverged": not max(pos, vel) < 1e3
+                    values = {"err_eta": pos, "err_v": vel} if error else {
+                        "err_eta": pos, "err_v": vel, "k": _horizon(measure),
+                        "diverged": not max(pos, vel) < 1e3,
                     }  # fmt: skip
                     rows.append(
                         {
                             "key": key, "status": "error" if error else "ok",
-                            "err_eta": pos, "err_v": vel, "err_all": math.nan,
-                            "seconds": seconds, "error": error, "warnings": msgs,
-                            "worker": worker, "result": result,
+                            "values": values, "seconds": seconds, "error": error,
+                            "warnings": msgs, "worker": worker,
                         }
                     )  # fmt: skip
         return ChunkResult(chunk.traj_key, shared.meta, rows)
@@ -195,27 +194,61 @@ def _errors(dm: Any, meas: Any, exact: Any, start: int, measure: str) -> tuple[f
 
 
 MULTISTEP = MultistepCells()
-register_cell_kind(MULTISTEP)
 
 
 def _config(study: MultistepStudy) -> SweepConfig:
-    return SweepConfig.from_mapping(
-        {
-            "kind": MULTISTEP.name,
-            "vehicle": study.vehicle,
-            "buoyancy_pct": study.buoyancy_pct,
-            "input": "fig6",
-            "T": study.T,
-            "after": study.after,
-            "h": list(study.h_values),
-            "methods": list(study.methods),
-            "noise": [list(p) for p in study.noise_pairs],
-            "seeds": study.seeds,
-            "base_seed": study.base_seed,
-            "horizon": study.K,
-        },
-        base_dir=Path.cwd(),
+    """The engine's grid of ``study`` (checked when made)."""
+    return SweepConfig(
+        kind=MULTISTEP.name,
+        vehicle=study.vehicle,
+        buoyancy_pct=study.buoyancy_pct,
+        inputs=({"name": "fig6"},),
+        T=study.T,
+        after=study.after,
+        h=tuple(study.h),
+        methods=tuple(study.methods),
+        noise=tuple((float(e), float(v)) for e, v in study.noise_pairs),
+        seeds=range(study.seeds) if isinstance(study.seeds, int) else study.seeds,
+        base_seed=study.seed,
+        options={"horizon": study.K},
     )
+
+
+class MultistepDefinition(StudyDefinition):
+    """The multi-step study: one engine run."""
+
+    name = "multistep"
+    settings_type = MultistepStudy
+
+    def configs(self, settings: MultistepStudy) -> tuple[SweepConfig, ...]:
+        return (_config(settings),)
+
+    def rows(self, settings: MultistepStudy, results: Sequence[Any]) -> list[dict[str, Any]]:
+        """Rows in the study's order: h, method, noise pair, seed, k (free run last)."""
+        (result,) = results
+        order = study_order(settings)
+        rows = []
+        for c in result.cells:
+            k = _horizon(c["horizon"])
+            rows.append(
+                (
+                    (*order(c), k or settings.K + 1),  # the free run (k = 0) last
+                    {
+                        "method": c["method"], "h": float(c["h"]), "eta_pct": float(c["eta_pct"]),
+                        "v_pct": float(c["v_pct"]), "seed": int(c["seed"]), "k": k,
+                        "pos_rms": c["err_eta"], "vel_rms": c["err_v"],
+                        "diverged": c["diverged"] is not False,  # a failed cell: True
+                    },
+                )
+            )  # fmt: skip
+        return [row for _order, row in sorted(rows, key=lambda r: r[0])]
+
+    def summary(self, settings: MultistepStudy, rows: list[dict[str, Any]]) -> list[dict]:
+        return summarize_multistep(rows)
+
+
+#: The registered study ``reproduce multistep``.
+MULTISTEP_STUDY = MultistepDefinition()
 
 
 def run_multistep_study(
@@ -232,30 +265,10 @@ def run_multistep_study(
     experiment engine (cells of kind ``multistep``; ``store``, ``workers``,
     ``scheduler``, ``progress_bar`` as :func:`sampledyn.experiments.
     run_closed_loop_study`; ``progress`` gets one line: what the engine computed)."""
-    result = run_study(_config(study), store, **backend_options(workers, scheduler, progress_bar))
-    if progress is not None:
-        progress(f"{study.vehicle}: {result.summary.describe(store)}")
-    order = study_order(study)
-    rows = []
-    for c in result.cells:
-        k = _horizon(c["norm"])
-        rows.append(
-            (
-                (*order(c), k or study.K + 1),  # the free run (k = 0) last
-                {
-                    "method": c["method"], "h": float(c["h"]), "eta_pct": float(c["eta_pct"]),
-                    "v_pct": float(c["v_pct"]), "seed": int(c["seed"]), "k": k,
-                    "pos_rms": _stored(c["err_eta"]), "vel_rms": _stored(c["err_v"]),
-                    "diverged": bool(c["result"].get("diverged", True)),
-                },
-            )
-        )  # fmt: skip
-    return [row for _order, row in sorted(rows, key=lambda r: r[0])]
-
-
-def _stored(value: Any) -> float:
-    """A stored error (SQLite keeps NaN as NULL)."""
-    return math.nan if value is None else float(value)
+    return MULTISTEP_STUDY.run(
+        study, store=store, workers=workers, scheduler=scheduler, progress=progress_bar,
+        say=progress,
+    ).rows  # fmt: skip
 
 
 def summarize_multistep(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:

@@ -19,36 +19,35 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from .sweep import SweepConfig, backend_options, run_study
+from ._studies import StudyDefinition
 
 __all__ = [
+    "FIG7",
+    "FIG7_NORMS",
     "FIG7_STUDY_FILE",
-    "NORMS",
     "ROVStudy",
     "fig7_rows",
     "fig7_vehicle",
     "run_rov_study",
-    "summarize",
+    "summarize_rov",
 ]
 
 #: The built-in Fig. 7 study (a sweep file).
 FIG7_STUDY_FILE = Path(__file__).parent / "studies" / "fig7.toml"
 #: The norms the Fig. 7 study reports (the paper's: Euclidean over the six eta (m and
 #: rad mixed) and over the six v components (m/s and rad/s mixed)).
-NORMS = ("l2_over_n", "rms")
+FIG7_NORMS = ("l2_over_n", "rms")
 #: The same norms split by unit, for the figure: column prefix -> (units, block).
 SPLIT = {
-    "lin_pos": ("m,m/s", "eta"),  # positions (m)
-    "ang_pos": ("rad,rad/s", "eta"),  # Euler angles (rad)
-    "lin_vel": ("m,m/s", "v"),  # linear velocities (m/s)
-    "ang_vel": ("rad,rad/s", "v"),  # angular rates (rad/s)
+    "lin_pos": (("m", "m/s"), "eta"),  # positions (m)
+    "ang_pos": (("rad", "rad/s"), "eta"),  # Euler angles (rad)
+    "lin_vel": (("m", "m/s"), "v"),  # linear velocities (m/s)
+    "ang_vel": (("rad", "rad/s"), "v"),  # angular rates (rad/s)
 }
 _HOLD = "roll_pitch_hold"
 
@@ -61,7 +60,8 @@ def fig7_vehicle(vehicle: Any, buoyancy_pct: float = 1.0) -> Any:
 @dataclass(frozen=True)
 class ROVStudy:
     """Settings of the Fig. 7 study; None keeps the built-in study's value
-    (:data:`FIG7_STUDY_FILE`: the paper's settings on the RexROV).
+    (:data:`FIG7_STUDY_FILE`: the paper's settings on the RexROV, and what its
+    ``per_vehicle`` table says for the vehicle).
 
     Attributes
     ----------
@@ -69,7 +69,7 @@ class ROVStudy:
         Built-in vehicle name or path of a vehicle file (default "rexrov").
     T, after : float
         Duration and start of the error window (s). Paper: 5000 and 1000.
-    h_values : tuple of float
+    h : tuple of float
         Sampling periods (s). Paper: 0.1 and 0.5.
     noise_pairs : tuple of (eta %, v %)
         Paper: the 12 pairs of Fig. 7.
@@ -77,8 +77,8 @@ class ROVStudy:
         Paper: AB1 and AB4; AB2, AB3 and RK4 are extra columns.
     seeds : int
         Monte Carlo repetitions per noisy cell (the noise-free cell runs once).
-    base_seed : int
-        Root of the noise seeds: seed k of a cell draws from SeedSequence([base_seed, k]).
+    seed : int
+        Root of the noise seeds: seed k of a cell draws from SeedSequence([seed, k]).
     buoyancy_pct : float
         Positive buoyancy of the experiment in percent of the weight (paper: 1 %); the
         vehicle file keeps its published volume, the experiment scales it.
@@ -91,111 +91,134 @@ class ROVStudy:
         other vehicle: no, as in the paper). With the hold the thrusters turn at the
         Fig. 6 rpm plus the loop's correction, and the measured input is that applied
         rpm.
-    kp, kd : float or None
-        Gains of the hold (N m/rad, N m s/rad); None: the study table's for the
+    hold_gains : (kp, kd) or None
+        Gains of the hold (N m/rad, N m s/rad, > 0); None: the study table's for the
         vehicle (``feedback_tuning``: RexROV 16000 and 7200, BlueROV2 Heavy 40 and 6),
         else the law's defaults (40 and 6).
     rtol : float
         Tolerance of the exact samples (atol the same).
+    norm : str
+        The norm of the table and figure (:data:`FIG7_NORMS`).
+
+    Raises
+    ------
+    ValueError
+        for gains that are not two numbers > 0, or gains with the hold switched off.
     """
 
     vehicle: str | None = None
     T: float | None = None
     after: float | None = None
-    h_values: tuple[float, ...] | None = None
+    h: tuple[float, ...] | None = None
     noise_pairs: tuple[tuple[float, float], ...] | None = None
     methods: tuple[str, ...] | None = None
     seeds: int | None = None
-    base_seed: int | None = None
+    seed: int | None = None
     buoyancy_pct: float | None = None
     distribution: str | None = None
     attitude_hold: bool | None = None
-    kp: float | None = None
-    kd: float | None = None
+    hold_gains: tuple[float, float] | None = None
     rtol: float | None = None
+    norm: str = FIG7_NORMS[0]
 
-    def config(self, base_dir: str | os.PathLike[str] | None = None) -> SweepConfig:
-        """The sweep grid of this study (relative vehicle paths resolve against
-        ``base_dir``, default the working directory).
+    def __post_init__(self) -> None:
+        gains = self.hold_gains
+        if gains is not None and (
+            len(gains) != 2 or not all(isinstance(g, int | float) and math.isfinite(g) and g > 0
+                                       for g in gains)
+        ):  # fmt: skip
+            raise ValueError(
+                "`hold_gains` (--hold-gains) must be two numbers > 0, KP (N m/rad) and KD "
+                f"(N m s/rad), e.g. 16000,7200; got {','.join(f'{g:g}' for g in gains)}."
+            )
+        if gains is not None and self.attitude_hold is False:
+            raise ValueError(
+                "`hold_gains` (--hold-gains) are gains of the attitude hold, which "
+                "attitude_hold=False (--no-attitude-hold) switches off; give one or the other."
+            )
+        if self.norm not in FIG7_NORMS:
+            raise ValueError(
+                f"the Fig. 7 study reports the norms {', '.join(FIG7_NORMS)}, not {self.norm!r}."
+            )
+
+    def config(self, base_dir: str | os.PathLike[str] | None = None) -> Any:
+        """The sweep grid of this study: the study file read for the vehicle, with the
+        values given here (relative vehicle paths resolve against ``base_dir``,
+        default the working directory).
 
         Raises
         ------
         SweepConfigError
             naming a bad setting (a ``ValueError``).
         """
-        data: dict[str, Any] = tomllib.loads(FIG7_STUDY_FILE.read_text())
-        for key, value in (
-            ("vehicle", self.vehicle),
-            ("T", self.T),
-            ("after", self.after),
-            ("h", None if self.h_values is None else list(self.h_values)),
-            ("noise", None if self.noise_pairs is None else [list(p) for p in self.noise_pairs]),
-            ("methods", None if self.methods is None else list(self.methods)),
-            ("seeds", self.seeds),
-            ("base_seed", self.base_seed),
-            ("buoyancy_pct", self.buoyancy_pct),
-            ("distribution", self.distribution),
-            ("rtol", self.rtol),
-        ):
-            if value is not None:
-                data[key] = value
-        feedback = self._feedback(data)
-        if feedback is not None:
-            data["feedback"] = feedback
-        base = Path.cwd() if base_dir is None else Path(base_dir)
-        return SweepConfig.from_mapping(data, base_dir=base)
+        from ..models import is_model_file
+        from .sweep import load_config
 
-    def _feedback(self, data: dict[str, Any]) -> Any:
-        """The ``feedback`` entry the switches ask for (None: the table decides). Gains
-        not given here come from the table's ``feedback_tuning`` for the vehicle."""
-        vehicle = str(data["vehicle"])
-        table = data.get("per_vehicle", {})
-        entry = table.get(vehicle) or table.get(Path(vehicle).stem) or {}
-        listed = entry.get("feedback")
-        gains = {k: v for k, v in (("kp", self.kp), ("kd", self.kd)) if v is not None}
+        vehicle = self.vehicle
+        if vehicle is not None and base_dir is not None and not Path(vehicle).is_absolute():
+            vehicle = str(Path(base_dir) / vehicle) if is_model_file(vehicle) else vehicle
+        base = load_config(FIG7_STUDY_FILE, vehicle=vehicle)
+        given: dict[str, Any] = {
+            "T": self.T, "after": self.after, "h": self.h, "noise": self.noise_pairs,
+            "methods": self.methods, "seeds": None if self.seeds is None else range(self.seeds),
+            "base_seed": self.seed, "buoyancy_pct": self.buoyancy_pct,
+            "distribution": self.distribution, "rtol": self.rtol,
+        }  # fmt: skip
+        config = replace(base, **{k: v for k, v in given.items() if v is not None})
+        return self._feedback(config)
+
+    def _feedback(self, config: Any) -> Any:
+        """``config`` with the hold the switches ask for (the table's otherwise)."""
+        gains = {}
+        if self.hold_gains is not None:
+            gains = dict(zip(("kp", "kd"), self.hold_gains, strict=True))
+        held = config.feedback is not None and config.feedback["law"] == _HOLD
         if self.attitude_hold is False:
-            if gains:
-                raise ValueError("`kp`/`kd` are gains of the attitude hold; it is switched off.")
-            return "none"
+            return config.with_feedback(None)
         if self.attitude_hold is None and not gains:
-            return None
-        if self.attitude_hold is None and (listed is None or listed.get("law") != _HOLD):
+            return config
+        if self.attitude_hold is None and not held:
             raise ValueError(
-                f"`kp`/`kd` are gains of the attitude hold, which {vehicle!r} does not use by "
-                "default; switch it on (attitude_hold=True, --attitude-hold)."
+                f"`hold_gains` (--hold-gains) are gains of the attitude hold, which "
+                f"{config.vehicle!r} does not use by default; switch it on "
+                "(attitude_hold=True, --attitude-hold)."
             )
-        hold = dict(listed) if listed is not None and listed.get("law") == _HOLD else {"law": _HOLD}
-        return {**hold, **gains}
+        if held:
+            return replace(config, feedback={**config.feedback, **gains})
+        return config.with_feedback(_HOLD, **gains)
 
 
 def _columns(norm: str, norms: tuple[str, ...]) -> list[tuple[str, str]]:
-    """(column, block) pairs a cell of ``norm`` fills."""
-    if norm in norms:
-        return [(f"pos_{norm}", "eta"), (f"vel_{norm}", "v")]
-    kind, _, rest = norm.partition("[")
-    units = rest.rstrip("]")
-    if kind not in norms:
+    """(column, block) pairs a cell of ``norm`` fills (the norm read by the engine's
+    one parser, :func:`~sampledyn.experiments.sweep.parse_norm`)."""
+    from .sweep import parse_norm
+
+    spec = parse_norm(norm)
+    if spec.kind not in norms or spec.part != "disturbed" or spec.mask is not None:
         return []
-    return [(f"{p}_{kind}", b) for p, (u, b) in SPLIT.items() if u == units]
+    if spec.units is None:
+        return [(f"pos_{spec.kind}", "eta"), (f"vel_{spec.kind}", "v")]
+    return [(f"{p}_{spec.kind}", b) for p, (u, b) in SPLIT.items() if u == spec.units]
 
 
-def fig7_rows(cells: list[dict[str, Any]], norms: tuple[str, ...] = NORMS) -> list[dict[str, Any]]:
+def fig7_rows(
+    cells: list[dict[str, Any]], norms: tuple[str, ...] = FIG7_NORMS
+) -> list[dict[str, Any]]:
     """One row per (h, noise pair, seed, method) from the engine's cells, with the
     position and velocity norms ``pos_<norm>``, ``vel_<norm>`` (the paper's: m and rad
     mixed, m/s and rad/s mixed) and, where the study computed them, the same split by
     unit (``lin_pos_``, ``ang_pos_``, ``lin_vel_``, ``ang_vel_<norm>``: m, rad, m/s,
     rad/s); NaN where the cell failed (its message in ``error``)."""
     rows: dict[tuple[Any, ...], dict[str, Any]] = {}
+    columns_of: dict[str, list[tuple[str, str]]] = {}
     for c in cells:
-        columns = _columns(c["norm"], norms)
+        if c["norm"] not in columns_of:
+            columns_of[c["norm"]] = _columns(c["norm"], norms)
+        columns = columns_of[c["norm"]]
         if not columns:
             continue
         key = (c["h"], c["eta_pct"], c["v_pct"], c["seed"], c["method"])
-        row = rows.setdefault(
-            key,
-            {"h": c["h"], "eta_pct": c["eta_pct"], "v_pct": c["v_pct"], "seed": c["seed"],
-             "method": c["method"]},
-        )  # fmt: skip
+        row = rows.setdefault(key, {k: c[k] for k in _INDEX})
         ok = c["status"] == "ok"
         for column, block in columns:
             row[column] = float(c[f"err_{block}"]) if ok else math.nan
@@ -205,15 +228,80 @@ def fig7_rows(cells: list[dict[str, Any]], norms: tuple[str, ...] = NORMS) -> li
     have = {k for r in rows.values() for k in r}
     order = [f"{q}_{n}" for q in ("pos", "vel") for n in norms] + [k for k in split if k in have]
     return [
-        {**{k: r[k] for k in ("h", "eta_pct", "v_pct", "seed", "method")},
+        {**{k: r[k] for k in _INDEX},
          **{k: r.get(k, math.nan) for k in order},
          **({"error": r["error"]} if "error" in r else {})}
         for r in rows.values()
     ]  # fmt: skip
 
 
+_INDEX = ("h", "eta_pct", "v_pct", "seed", "method")
+
+
+def summarize_rov(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Mean and standard deviation over seeds, one row per (h, noise pair, method)."""
+    import numpy as np
+
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["h"], r["eta_pct"], r["v_pct"], r["method"]), []).append(r)
+    out = []
+    keys = [k for k in rows[0] if k.startswith(("pos_", "vel_", *(f"{p}_" for p in SPLIT)))]
+    for (h, e, v, m), grp in groups.items():
+        row: dict[str, Any] = {"h": h, "eta_pct": e, "v_pct": v, "method": m, "seeds": len(grp)}
+        for k in keys:
+            vals = np.array([g[k] for g in grp])
+            row[k] = float(vals.mean())
+            row[f"{k}_std"] = float(vals.std(ddof=1)) if vals.size > 1 else 0.0
+        out.append(row)
+    return out
+
+
+class Fig7Study(StudyDefinition):
+    """The Fig. 7 study (one engine run: the study file read for the vehicle)."""
+
+    name = "fig7"
+    settings_type = ROVStudy
+
+    def configs(self, settings: ROVStudy) -> tuple[Any, ...]:
+        return (settings.config(),)
+
+    def rows(self, settings: ROVStudy, results: Sequence[Any]) -> list[dict[str, Any]]:
+        (result,) = results
+        norms = tuple(n for n in result.study.config.norms if n in FIG7_NORMS) or FIG7_NORMS
+        return fig7_rows(result.cells, norms)
+
+    def summary(self, settings: ROVStudy, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return summarize_rov(rows)
+
+    def defaults(self) -> dict[str, Any]:
+        """The study file's values (on its vehicle)."""
+        c = ROVStudy().config()
+        return {"h": c.h, "T": c.T, "after": c.after, "seeds": len(c.seeds),
+                "seed": c.base_seed, "vehicle": c.vehicle, "methods": c.methods,
+                "norm": ROVStudy.norm}  # fmt: skip
+
+    def default_out(self, settings: ROVStudy, configs: Sequence[Any]) -> str:
+        """``out/fig7`` for the study file's vehicle (the RexROV), ``out/fig7_<name>``
+        for another, so one run does not overwrite the other."""
+        (config,) = configs
+        return fig7_out(config.vehicle)
+
+
+def fig7_out(vehicle: str) -> str:
+    """Default output folder of fig7 for ``vehicle`` (see :meth:`Fig7Study.default_out`)."""
+    from .sweep import load_config
+
+    default = load_config(FIG7_STUDY_FILE).vehicle
+    return "out/fig7" if vehicle == default else f"out/fig7_{Path(vehicle).stem}"
+
+
+#: The registered study ``reproduce fig7``.
+FIG7 = Fig7Study()
+
+
 def run_rov_study(
-    study: ROVStudy | SweepConfig = ROVStudy(),
+    study: ROVStudy | Any = None,
     *,
     store: str | os.PathLike[str] | None = None,
     workers: int | None = 2,
@@ -225,6 +313,7 @@ def run_rov_study(
     Parameters
     ----------
     study : ROVStudy or SweepConfig
+        Default ``ROVStudy()``; a SweepConfig runs as it is.
     store : path, optional
         Results store: the cells are kept there, and a rerun (after a kill, say)
         computes only the missing ones.
@@ -243,41 +332,18 @@ def run_rov_study(
     exact samples), ``motion`` (h -> statistics of the forced motion), ``model`` (its
     label), ``config`` (the SweepConfig) and ``summary`` (what the run computed).
     """
-    if workers is not None and (isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"`workers` must be a positive int, got {workers!r}.")
-    cfg = study.config() if isinstance(study, ROVStudy) else study
-    result = run_study(cfg, store, **backend_options(workers, scheduler, progress))
-    norms = tuple(n for n in cfg.norms if n in NORMS) or NORMS
-    certificates: dict[float, float] = {}
-    motion: dict[float, dict[str, float]] = {}
-    for t in sorted(result.trajectories.values(), key=lambda r: r["h"]):
-        h = float(t["h"])
-        cert = t.get("certificate")
-        certificates[h] = math.nan if cert is None else float(cert)
-        motion[h] = dict(t.get("summary") or {})
-    label = next(iter(result.study.trajectories.values()))["vehicle"]
+    settings = ROVStudy() if study is None else study
+    configs = None if isinstance(settings, ROVStudy) else (settings,)
+    run = FIG7.run(
+        settings if isinstance(settings, ROVStudy) else ROVStudy(),
+        configs=configs, store=store, workers=workers, scheduler=scheduler, progress=progress,
+    )  # fmt: skip
+    (result,) = run.results
     return {
-        "rows": fig7_rows(result.cells, norms),
-        "certificates": certificates,
-        "motion": motion,
-        "model": label,
-        "config": cfg,
+        "rows": run.rows,
+        "certificates": result.certificates(),
+        "motion": result.summaries(),
+        "model": next(iter(result.study.trajectories.values()))["vehicle"],
+        "config": result.study.config,
         "summary": result.summary,
     }
-
-
-def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Mean and standard deviation over seeds, one row per (h, noise pair, method)."""
-    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
-    for r in rows:
-        groups.setdefault((r["h"], r["eta_pct"], r["v_pct"], r["method"]), []).append(r)
-    out = []
-    keys = [k for k in rows[0] if k.startswith(("pos_", "vel_", *(f"{p}_" for p in SPLIT)))]
-    for (h, e, v, m), grp in groups.items():
-        row: dict[str, Any] = {"h": h, "eta_pct": e, "v_pct": v, "method": m, "seeds": len(grp)}
-        for k in keys:
-            vals = np.array([g[k] for g in grp])
-            row[k] = float(vals.mean())
-            row[f"{k}_std"] = float(vals.std(ddof=1)) if vals.size > 1 else 0.0
-        out.append(row)
-    return out

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import error_norm, error_window, local_errors
 from ..estimate import EstimationResult
-from ..methods import fixed_step, get_method, stencil_steps
+from ..methods import Estimator, fixed_step, get_method, get_predictor, stencil_steps
 from ..models import JacobianUnavailableError
 from ..noise import NOISE_REFERENCE
 from ..predict import predict
@@ -351,11 +351,11 @@ def evaluate_log(
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")
     error_window(data.traj.t, after)  # checks `after` before any work
-    rules = [get_method(name) for name in methods]
+    rules = [get_predictor(name, "methods") for name in methods]
     _check_length(data, rules)
     notes = _time_base(data, rules)
     segments = data.segments
-    if len(segments) > 1 and any(get_method(name).estimates_params for name in methods):
+    if len(segments) > 1 and any(isinstance(get_method(name), Estimator) for name in methods):
         raise LogFormatError(
             "estimate",
             f"{data.source}: estimation on a log split into {len(segments)} segments is not "
@@ -371,7 +371,7 @@ def evaluate_log(
         notes += _check_period(model, data, max_h_rate)
         for name in methods:
             method: Any = get_method(name)
-            if method.estimates_params:
+            if isinstance(method, Estimator):
                 x_hat, estimation = method.estimate_and_predict(model, data.traj, after=after)
             else:
                 x_hat = np.full(data.traj.x.shape, np.nan)

@@ -44,7 +44,7 @@ from ._base import (
     uniform_stencils,
 )
 from ._nodes import corner_patterns, history_nodes, lagrange_integrals, pattern_nodes
-from ._registry import register_family
+from ._program import Combination, Stage, StepProgram
 
 __all__ = [
     "STABILITY_INTERVAL_MIN",
@@ -219,40 +219,6 @@ def lagged_jacobians(lagged: list[np.ndarray], hw: np.ndarray, n: int, nx: int) 
     return phi
 
 
-# z = (x_n, f_{n-1}, ..., f_{n-s+1}); the arithmetic of _ab_fir, so that one step from
-# the z of sampled data is the one-step prediction, bit for bit. ``step_f`` is the step
-# given f0 = f(t, x_n, u) (a rollout over sampled data takes it from f at the samples).
-_AB_STEP = """
-S = {s}
-_W = np.array({w!r})
-
-
-@njit(cache=CACHE, error_model="numpy")
-def step(t, z, u, p, h, out):
-    nx = z.shape[0] // S
-    f0 = np.empty(nx)
-    rhs(t, z[:nx], u, p, f0)
-    step_f(t, z, f0, u, p, h, out)
-
-
-@njit(inline="always", error_model="numpy")
-def step_f(t, z, f0, u, p, h, out):
-    nx = z.shape[0] // S
-    for j in range(nx):
-        o = z[j]
-        o += (h * _W[0]) * f0[j]
-        for i in range(1, S):
-            o += (h * _W[i]) * z[i * nx + j]
-        out[j] = o
-    for i in range(S - 1, 1, -1):
-        for j in range(nx):
-            out[i * nx + j] = z[(i - 1) * nx + j]
-    if S > 1:
-        for j in range(nx):
-            out[nx + j] = f0[j]
-"""
-
-
 @lru_cache(maxsize=128)
 def ab_gain_factor(s: int, ratio: float) -> float:
     """``sup h_n sum_i |beta_{n,i}|`` over the step patterns whose s steps (the predicted
@@ -422,64 +388,22 @@ class AdamsBashforth(AdamsRule):
     # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
 
     @property
-    def state_layout(self) -> tuple[tuple[str, int], ...]:
-        """The discrete state z = (x_n, f_{n-1}, ..., f_{n-s+1}): block i holds "x" or
-        "f" (f at the sample, with its input) at lag i; each block has nx entries."""
-        return (("x", 0),) + tuple(("f", i) for i in range(1, self.order))
-
-    def step_source(self) -> str:
-        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``np``), the
-        arithmetic of :func:`ab_filter` (bit-identical one-step predictions)."""
-        return _AB_STEP.format(s=self.order, w=[float(w) for w in self.weights])
-
-    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
-        """z+ from the blocks of z in vector arithmetic (numpy or CasADi): x_{n+1} =
-        x_n + h sum_i a_i f_{n-i}, then the f-history shifted by one."""
-        f0 = f(t, blocks[0], u)
-        w = self.weights
-        x = blocks[0] + (h * w[0]) * f0
-        for i in range(1, self.order):
-            x = x + (h * w[i]) * blocks[i]
-        return [x, f0, *blocks[1:-1]][: self.order]
-
-    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
-        """(A_d, B_d) of z+ = F(z, u), shapes (s nx, s nx) and (s nx, nu), from the
-        model's exact df/dx = F and df/du = G at (x_n, u_n): first block row
-        ``[I + h a_0 F, h a_1 I, ..., h a_{s-1} I]``, ``h a_0 G``; the new f-block
-        ``[F, 0, ...]``, G; the older f-blocks shift."""
-        nx, s, w = model.nx, self.order, self.weights
-        x = z[:nx]
-        F = np.asarray(model.jacobian(t, x, u), dtype=float)
-        G = np.asarray(model.input_jacobian(t, x, u), dtype=float)
-        A = np.zeros((s * nx, s * nx))
-        B = np.zeros((s * nx, G.shape[1]))
-        A[:nx, :nx] = np.eye(nx) + (h * w[0]) * F
-        B[:nx] = (h * w[0]) * G
-        for i in range(1, s):
-            A[:nx, i * nx : (i + 1) * nx] = (h * w[i]) * np.eye(nx)
-        if s > 1:
-            A[nx : 2 * nx, :nx] = F
-            B[nx : 2 * nx] = G
-        for i in range(2, s):
-            A[i * nx : (i + 1) * nx, (i - 1) * nx : i * nx] = np.eye(nx)
-        return A, B
-
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
-        """z of a constant history at (x, u): (x, f, ..., f), f = f(t, x, u)."""
-        f = np.asarray(model.f(float(t), x, u), dtype=float)
-        return np.concatenate([x] + [f] * (self.order - 1))
+    def discrete_step(self) -> StepProgram:
+        """z = (x_n, f_{n-1}, ..., f_{n-s+1}) (f at the samples, with their inputs):
+        ``x_{n+1} = x_n + sum_i (h a_i) f_{n-i}`` with f_n = f(t_n, x_n, u_n), in the
+        order of :func:`ab_filter` (one step from the z of sampled data is the
+        one-step prediction, bit for bit), then the f-history shifted by one."""
+        s, w = self.order, [float(v) for v in self.weights]
+        terms = ((w[0], ("k", 0)), *((w[i], ("z", i)) for i in range(1, s)))
+        return StepProgram(
+            self.name,
+            (("x", 0), *(("f", i) for i in range(1, s))),
+            (Stage(0.0, ("z", 0)),),
+            Combination(("z", 0), terms),
+            (("k", 0), *(("z", i) for i in range(1, s - 1)))[: s - 1],
+        )
 
 
 def Euler() -> AdamsBashforth:  # noqa: N802 - reads as a class in user code
     """Forward Euler, ``x_{n+1} = x_n + h f(t_n, x_n, u_n)``: the rule AB1 (= RK1)."""
     return AdamsBashforth(1, name="E")
-
-
-register_family("E", r"E", Euler, "Euler (= AB1 = RK1)")
-register_family(
-    "AB<s>",
-    r"AB(\d+)",
-    AdamsBashforth,
-    "Adams-Bashforth, s >= 1 (s > 6 warns: stability interval below 0.05)",
-    default_max_order=6,
-)

@@ -1,42 +1,48 @@
-"""What every sampled-data rule answers: the Method protocol, and the pieces the rules share.
+"""What the sampled-data rules answer: small protocols, and the pieces the rules share.
 
 A *method* (a rule) turns a continuous-time model x' = f(t, x, u) and sampled data
-(t_n, x_n, u_n) into one-step-ahead predictions x^_{n+1}. Everything that depends on
-which rule it is lives in the rule's own class; every other layer asks the object:
+(t_n, x_n, u_n) into one-step-ahead predictions x^_{n+1}, or a model and a period h
+into a discrete-time system z+ = F(z, u). Everything that depends on which rule it is
+lives in the rule's own class; every other layer asks the object, and asks what it
+can do with ``isinstance`` against these runtime-checkable protocols (one question,
+one way):
 
-=====================  ================================================================
-``name``               registry name, e.g. "AB4", "RK2", "T", "ABu3", "ABe2"
-``family``             the rule family, e.g. "AB" (Euler is AB1), "ABu", "RK", "T", "ABe"
-``order``              s: local error O(h^{s+1}) on smooth data
-``history``            samples x_n, ..., x_{n-history+1} a prediction of x_{n+1} uses
-``label``              display text (tables, legends)
-``intersample``        True if f is evaluated between samples (RK stages with c > 0,
-                       Tustin's end point): the input inside the interval matters, from
-                       the ``signal`` given to ``predict``
-``estimates_params``   True if the rule fits the model's parameters on the data it
-                       predicts (Ee, ABe_s); such a rule has no noise bound and also
-                       offers ``estimate_and_predict(model, data, signal, *, after)``
-``sample_weights``     w with x^_{n+1} = x_n + h sum_i w_i f(t_{n-i}, x_{n-i}, u_{n-i})
-                       exactly on a uniform grid, newest first (AB_s, Euler, RK1),
-                       else None
-``first_order_gain``   c of the noise gain G = c h L + O((h L)^2) (a_s = sum |a_i| for
-                       AB_s), None for estimated rules
-``error_constant``     C of the leading local error C h^{s+1} x^{(s+1)}, None where the
-                       rule has no single constant (RK_s) or is estimated
-``predict``            x^ for every sample, shape (N, nx), NaN rows where history lacks
-``noise_gain``         G(h, L, ratio) of the disturbed-error bound (24)-(25): h the
-                       largest step, ratio the largest step ratio in a stencil
-                       (:func:`stencil_steps`; 1 on a uniform grid)
-``prediction_jacobians``  d x^_{n+1} / d x_{n-i}, i < history: the linearisation used
-                       by the path-based noise prediction
-``truncation_differences``  s-th backward differences of the derivative values the
-                       rule extrapolates (leading local error = C h times them), or None
-``variable_step``      True if ``predict`` takes non-uniform sample times (steps
-                       ``h_n = t_{n+1} - t_n`` as they come); False if the rule
-                       refuses them (:func:`uniform_step`)
-``step_rule``          how the rule uses the actual steps, for printing (e.g. "Lagrange
-                       weights of the logged nodes")
-=====================  ================================================================
+:class:`Method` (every registered rule)
+    ``name`` (registry name, e.g. "AB4", "RK2", "T", "ABu3", "ABe2", "ZOH"),
+    ``family`` ("AB" (Euler is AB1), "ABu", "ABj", "RK", "T", "ABe", "ZOH"),
+    ``order`` (s: local error O(h^{s+1}) on smooth data; None for the exact map ZOH,
+    which has no truncation error), ``history`` (samples x_n, ..., x_{n-history+1}
+    one step uses), ``label`` (display text).
+:class:`Predictor` (rules that predict on sampled data: all but ZOH)
+    ``predict(model, data, signal=None, *, cache=None)``: x^ for every sample, shape
+    (N, nx), NaN rows where history lacks; ``intersample``: True if f is evaluated
+    between samples (RK stages with c > 0, Tustin's end point), so the input inside
+    the interval matters (from ``signal``); ``variable_step``: True if ``predict``
+    takes non-uniform sample times (steps ``h_n = t_{n+1} - t_n`` as they come),
+    False if it refuses them (:func:`uniform_step`); ``step_rule``: how it uses the
+    actual steps, for printing; ``sample_weights``: w with x^_{n+1} = x_n + h sum_i
+    w_i f(t_{n-i}, x_{n-i}, u_{n-i}) exactly on a uniform grid, newest first (AB_s,
+    Euler, RK1), else None.
+:class:`NoiseAnalysis` (the fixed predictors: a noise bound and error constant)
+    ``noise_gain(h, L, ratio)``: G of the disturbed-error bound (24)-(25), h the
+    largest step, ratio the largest step ratio in a stencil (:func:`stencil_steps`; 1
+    on a uniform grid); ``first_order_gain``: c of G = c h L + O((h L)^2) (a_s =
+    sum |a_i| for AB_s); ``prediction_jacobians``: d x^_{n+1} / d x_{n-i}, i <
+    history, the linearisation used by the path-based noise prediction;
+    ``error_constant``: C of the leading local error C h^{s+1} x^{(s+1)}, None where
+    the rule has no single constant (RK_s, s >= 2); ``truncation_differences``: the
+    s-th backward differences of the derivative values the rule extrapolates
+    (leading local error = C h times them), or None.
+:class:`Estimator` (Ee, ABe_s: the rule fits the model's parameters on the data it
+predicts, so it has no noise bound and no fixed discrete-time map)
+    ``estimate_and_predict(model, data, signal=None, *, after=None)``.
+:class:`DiscreteTimeSystem` (every fixed rule but ABj_s, and ZOH)
+    ``discrete_step``: the step z+ = F(z, u) as data (:class:`DiscreteStep`:
+    :class:`sampledyn.methods.StepProgram` for the rules built of f evaluations,
+    their coefficients or tableau, from which the compiled step, the numpy/CasADi
+    blocks and the exact linearisation are derived in one place; the exact flow for
+    ZOH), used by :func:`sampledyn.discretize`. A rule that is no such system says
+    why in its ``no_discrete_step`` text (ABj_s: a switch on past inputs).
 
 Prediction takes the sample times ``data.t`` as they come: a rule decides itself
 whether it can work on a non-uniform grid, and nobody else checks the grid. On a grid
@@ -45,25 +51,6 @@ fixed-step code (fixed coefficients, one h); elsewhere the variable-step rules u
 the actual steps (AB_s family: the Lagrange weights of the actual nodes,
 :mod:`sampledyn.methods._nodes`; one-step rules: h_n per interval), and the others
 raise naming the step (:func:`uniform_step`).
-
-Rules that are discrete-time state-space systems z+ = F(z, u) (every fixed rule but
-ABj_s) also answer, for :func:`sampledyn.discretize`:
-
-=====================  ================================================================
-``state_layout``       what z holds: blocks of nx entries, ("x", lag) a past state,
-                       ("f", lag) f at a past sample (AB_s); raises NotImplementedError
-                       with the reason for a rule that is no such system (ABj_s)
-``step_source()``      numba source of ``step(t, z, u, p, h, out)`` (the same arithmetic
-                       as ``predict``), compiled by ``sampledyn.discretize`` against the
-                       model's kernel; a rule whose z starts with x_n and whose step
-                       needs f only there also defines ``step_f(t, z, f0, u, p, h,
-                       out)``, the step given f0 = f(t, x_n, u)
-``step_blocks``        the same step in vector arithmetic (numpy or CasADi symbols)
-``linearize``          (A_d, B_d) at (z, u), exact from df/dx and df/du
-``steady_state``       z of a constant history at (x, u)
-=====================  ================================================================
-
-``prediction_jacobians`` is the state part of ``linearize`` on sampled data.
 
 The ``cache`` argument of ``predict`` and ``prediction_jacobians`` is a plain dict the
 caller may pass and keep for several rules on the same data: f (and df/dx) at the
@@ -81,7 +68,12 @@ import numpy as np
 from .._trajectory import Trajectory, steps_on_grid, uniform_grid
 
 __all__ = [
+    "DiscreteStep",
+    "DiscreteTimeSystem",
+    "Estimator",
     "Method",
+    "NoiseAnalysis",
+    "Predictor",
     "check_gain_args",
     "check_ratio",
     "fixed_step",
@@ -99,13 +91,16 @@ __all__ = [
 
 @runtime_checkable
 class Method(Protocol):
-    """A one-step-ahead sampled-data rule (see the module docstring for each member)."""
+    """What every registered rule answers (see the module docstring)."""
 
-    name: str
-    order: int
+    @property
+    def name(self) -> str: ...
 
     @property
     def family(self) -> str: ...
+
+    @property
+    def order(self) -> int | None: ...
 
     @property
     def history(self) -> int: ...
@@ -113,26 +108,25 @@ class Method(Protocol):
     @property
     def label(self) -> str: ...
 
+
+@runtime_checkable
+class Predictor(Method, Protocol):
+    """A rule that predicts x_{n+1} from sampled data (see the module docstring)."""
+
+    @property
+    def order(self) -> int: ...
+
     @property
     def intersample(self) -> bool: ...
-
-    @property
-    def estimates_params(self) -> bool: ...
-
-    @property
-    def sample_weights(self) -> np.ndarray | None: ...
-
-    @property
-    def first_order_gain(self) -> Fraction | None: ...
-
-    @property
-    def error_constant(self) -> Fraction | None: ...
 
     @property
     def variable_step(self) -> bool: ...
 
     @property
     def step_rule(self) -> str: ...
+
+    @property
+    def sample_weights(self) -> np.ndarray | None: ...
 
     def predict(
         self,
@@ -145,6 +139,17 @@ class Method(Protocol):
         """x_hat[k] predicts data.x[k] from samples before k, shape (N, nx); NaN rows
         where the history is missing (the first ``history`` rows)."""
         ...
+
+
+@runtime_checkable
+class NoiseAnalysis(Protocol):
+    """A fixed predictor's noise gain, linearisation on data and error constant."""
+
+    @property
+    def first_order_gain(self) -> Fraction: ...
+
+    @property
+    def error_constant(self) -> Fraction | None: ...
 
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """Noise gain G, shape (k, k), of the bound (24)-(25) for blockwise Lipschitz
@@ -179,18 +184,70 @@ class Method(Protocol):
         ...
 
 
+@runtime_checkable
+class Estimator(Predictor, Protocol):
+    """A rule that estimates the model's parameters on the data it predicts."""
+
+    def estimate_and_predict(
+        self, model: Any, data: Trajectory, signal: Any = None, *, after: float | None = None
+    ) -> tuple[np.ndarray, Any]:
+        """``(x_hat, EstimationResult)``: the estimate on ``data`` and the predictions."""
+        ...
+
+
+@runtime_checkable
+class DiscreteStep(Protocol):
+    """A rule's step z+ = F(z, u) as data, and what is derived from it.
+
+    ``layout``: the blocks of z, each nx long: ("x", lag) a past state, ("f", lag) f
+    at a past sample (with its input); ``kernels``: the model kernels the compiled
+    step calls ("rhs", "jac", or "flow", the exact flow over one interval, which
+    :func:`sampledyn.discretize` provides); ``takes_f0``: the source also defines
+    ``step_f(t, z, f0, u, p, h, out)``, the step given f0 = f(t, x_n, u);
+    ``source()``: numba source of ``step(t, z, u, p, h, out)``; ``blocks(f, t,
+    blocks, u, h, solver)``: the step in vector arithmetic (numpy or CasADi);
+    ``linearize(model, t, z, u, h)``: (A_d, B_d), exact; ``steady_state(model, x,
+    u, t)``: z of a constant history.
+    """
+
+    @property
+    def layout(self) -> tuple[tuple[str, int], ...]: ...
+
+    @property
+    def kernels(self) -> frozenset[str]: ...
+
+    @property
+    def takes_f0(self) -> bool: ...
+
+    def source(self) -> str: ...
+
+    def blocks(
+        self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, solver: Any = None
+    ) -> list[Any]: ...
+
+    def linearize(
+        self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any: ...
+
+
+@runtime_checkable
+class DiscreteTimeSystem(Method, Protocol):
+    """A rule that is a discrete-time state-space system z+ = F(z, u)."""
+
+    @property
+    def discrete_step(self) -> DiscreteStep: ...
+
+
 class FixedRule:
-    """Defaults of the rules with fixed parameters (everything but Ee / ABe_s)."""
+    """Defaults of the fixed predictors (every :class:`Predictor` but Ee / ABe_s)."""
 
     name: str
 
     @property
     def label(self) -> str:
         return self.name
-
-    @property
-    def estimates_params(self) -> bool:
-        return False
 
     @property
     def sample_weights(self) -> np.ndarray | None:

@@ -26,9 +26,9 @@ import numpy as np
 from .._trajectory import Trajectory
 from ._adams import AdamsRule, fill_lagged, lagged_jacobians
 from ._base import fixed_step, nan_rows, sample_f, sample_jacobian, uniform_stencils
-from ._registry import register_family
+from ._program import Combination, Stage, StepProgram
 
-__all__ = ["JACOBIAN_CHUNK_BYTES", "HeldInputAdamsBashforth", "held_history"]
+__all__ = ["JACOBIAN_CHUNK_BYTES", "HeldHistoryRule", "HeldInputAdamsBashforth", "held_history"]
 
 # Size (bytes) of the largest array of one block of prediction Jacobians, ABj's forward
 # derivatives through the sweeps, (rows, s, s, nx, nx): the rows are linearised block
@@ -63,40 +63,11 @@ def held_history(
     return out
 
 
-# z = (x_n, x_{n-1}, ..., x_{n-s+1}); the arithmetic of predict.
-_ABU_STEP = """
-S = {s}
-_W = np.array({w!r})
-
-
-@njit(cache=CACHE, error_model="numpy")
-def step(t, z, u, p, h, out):
-    nx = z.shape[0] // S
-    g = np.empty(nx)
-    for j in range(nx):
-        out[j] = z[j]
-    for i in range(S):
-        rhs(t - i * h, z[i * nx : (i + 1) * nx], u, p, g)
-        c = h * _W[i]
-        for j in range(nx):
-            out[j] += c * g[j]
-    for i in range(S - 1, 0, -1):
-        for j in range(nx):
-            out[i * nx + j] = z[(i - 1) * nx + j]
-"""
-
-
 @dataclass(frozen=True)
-class HeldInputAdamsBashforth(AdamsRule):
-    """ABu_s: Adams-Bashforth of order s with the f-history taken at the current input.
-
-    Attributes
-    ----------
-    order : int
-        s >= 1; ABu1 is Euler. Orders above 6 warn (as AB_s).
-    coefficients : tuple of Fraction
-        a_0..a_{s-1} of AB_s, newest first.
-    """
+class HeldHistoryRule(AdamsRule):
+    """What ABu_s and ABj_s share: the AB_s weights on an f-history taken at the input
+    held over the predicted interval (:meth:`_history`, which ABj_s rebuilds after a
+    jump); prediction, its Jacobians and truncation differences."""
 
     FAMILY: ClassVar[str] = "ABu"
 
@@ -210,57 +181,30 @@ class HeldInputAdamsBashforth(AdamsRule):
         d = np.diff(np.stack(oldest_first), n=s, axis=0)[0]
         return d if fixed_step(data) is not None else d[uniform_stencils(data, s)]
 
-    # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
+
+@dataclass(frozen=True)
+class HeldInputAdamsBashforth(HeldHistoryRule):
+    """ABu_s: Adams-Bashforth of order s with the f-history taken at the current input.
+
+    Attributes
+    ----------
+    order : int
+        s >= 1; ABu1 is Euler. Orders above 6 warn (as AB_s).
+    coefficients : tuple of Fraction
+        a_0..a_{s-1} of AB_s, newest first.
+    """
 
     @property
-    def state_layout(self) -> tuple[tuple[str, int], ...]:
-        """The discrete state z = (x_n, x_{n-1}, ..., x_{n-s+1}): the past states (the
-        f-history is taken at the current input, so it cannot be stored)."""
-        return tuple(("x", i) for i in range(self.order))
-
-    def step_source(self) -> str:
-        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``np``), the
-        arithmetic of :meth:`predict`."""
-        return _ABU_STEP.format(s=self.order, w=[float(w) for w in self.weights])
-
-    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
-        """z+ from the blocks of z in vector arithmetic (numpy or CasADi): x_{n+1} =
-        x_n + h sum_i a_i f(t_{n-i}, x_{n-i}, u_n), then the states shifted by one."""
-        w = self.weights
-        x = blocks[0]
-        for i in range(self.order):
-            x = x + (h * w[i]) * f(t - i * h, blocks[i], u)
-        return [x, *blocks[:-1]]
-
-    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
-        """(A_d, B_d), shapes (s nx, s nx) and (s nx, nu): first block row
-        ``[I + h a_0 F_0, h a_1 F_1, ...]`` with ``F_i = df/dx(x_{n-i}, u_n)`` and
-        ``B = h sum_i a_i df/du(x_{n-i}, u_n)``; the older states shift."""
-        nx, s, w = model.nx, self.order, self.weights
-        xs = np.asarray(z, dtype=float).reshape(s, nx)
-        ts = float(t) - h * np.arange(s)
-        us = np.broadcast_to(np.asarray(u, dtype=float), (s, model.nu))
-        F = np.asarray(model.jacobian(ts, xs, us), dtype=float)
-        G = np.asarray(model.input_jacobian(ts, xs, us), dtype=float)
-        A = np.zeros((s * nx, s * nx))
-        for i in range(s):
-            A[:nx, i * nx : (i + 1) * nx] = (h * w[i]) * F[i]
-        A[:nx, :nx] += np.eye(nx)
-        for i in range(1, s):
-            A[i * nx : (i + 1) * nx, (i - 1) * nx : i * nx] = np.eye(nx)
-        B = np.zeros((s * nx, model.nu))
-        B[:nx] = h * np.einsum("i,iab->ab", w, G)
-        return A, B
-
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
-        """z of a constant history at (x, u): (x, ..., x)."""
-        return np.tile(np.asarray(x, dtype=float), self.order)
-
-
-register_family(
-    "ABu<s>",
-    r"ABu(\d+)",
-    HeldInputAdamsBashforth,
-    "Adams-Bashforth with the input held over the predicted interval (f-history at u_n), s >= 1",
-    default_max_order=6,
-)
+    def discrete_step(self) -> StepProgram:
+        """z = (x_n, x_{n-1}, ..., x_{n-s+1}), the past states (the f-history is taken at
+        the current input, so it cannot be stored): ``x_{n+1} = x_n + sum_i (h a_i)
+        f(t_n - i h, x_{n-i}, u_n)``, in the order of :meth:`predict`, then the states
+        shifted by one."""
+        s, w = self.order, [float(v) for v in self.weights]
+        return StepProgram(
+            self.name,
+            tuple(("x", i) for i in range(s)),
+            tuple(Stage(float(-i), ("z", i)) for i in range(s)),
+            Combination(("z", 0), tuple((w[i], ("k", i)) for i in range(s))),
+            tuple(("z", i) for i in range(s - 1)),
+        )

@@ -37,9 +37,8 @@ import numpy as np
 
 from .._trajectory import Trajectory
 from ._base import check_gain_args, check_ratio, fixed_step, sample_f, uniform_stencils
-from ._held import HeldInputAdamsBashforth
+from ._held import HeldHistoryRule
 from ._nodes import corner_patterns, history_nodes, lagrange_integrals, pattern_nodes
-from ._registry import register_family
 
 __all__ = ["JumpAwareAdamsBashforth", "backward_weights", "collocation_weights"]
 
@@ -73,7 +72,7 @@ def backward_weights(s: int) -> tuple[tuple[Fraction, ...], ...]:
 
 
 @dataclass(frozen=True)
-class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
+class JumpAwareAdamsBashforth(HeldHistoryRule):
     """ABj_s: ABu_s with the f-history rebuilt where it holds an input jump.
 
     Attributes
@@ -86,18 +85,13 @@ class JumpAwareAdamsBashforth(HeldInputAdamsBashforth):
 
     FAMILY: ClassVar[str] = "ABj"
 
-    NO_STATE_SPACE: ClassVar[str] = (
+    #: Why ABj_s is no discrete-time system (it has no ``discrete_step``).
+    no_discrete_step: ClassVar[str] = (
         "its f-history is rebuilt (an implicit sweep) only where the input changed inside "
         "the history, a switch on past inputs: z+ = F(z, u) would not be one smooth map, "
         "and it has no Jacobian across a jump. Use ABu<s> (the same rule where the input "
         "is constant over the history) or AB<s>"
     )
-
-    @property
-    def state_layout(self) -> tuple[tuple[str, int], ...]:
-        """Not a discrete-time state-space system: raises NotImplementedError (why:
-        :attr:`NO_STATE_SPACE`)."""
-        raise NotImplementedError(f"{self.name}: {self.NO_STATE_SPACE}.")
 
     # -- the rule --------------------------------------------------------------------
 
@@ -233,13 +227,3 @@ def collocation_weights(tau: np.ndarray) -> np.ndarray:
     for j in range(1, s):
         out[:, j - 1] = lagrange_integrals(tau, tau[:, j], 0.0)
     return out
-
-
-register_family(
-    "ABj<s>",
-    r"ABj(\d+)",
-    JumpAwareAdamsBashforth,
-    "Adams-Bashforth with the input held and the f-history rebuilt after an input jump "
-    "(order s across jumps), s >= 1",
-    default_max_order=6,
-)

@@ -1,28 +1,38 @@
 """The one registry of method names, iterated by tests, the CLI, the figures and the docs.
 
-A *family* is registered once, by the module that defines it, with a name pattern and
-a factory: a single rule ("E", "T", "Ee": ``factory()``) or a family of orders
-("AB<s>": ``factory(s)``) with the largest order listed by default and, where the
-family ends, the largest order that exists. Every other layer gets names and method
-objects from here and asks the objects what they are; nobody parses names.
+Every built-in family is one row of :data:`BUILT_IN` below, in listing order: a name
+pattern, the factory that builds its rules, as ``"module:attribute"``, and a
+description. A family is a single rule ("E", "T", "Ee", "ZOH": ``factory()``) or a
+family of orders ("AB<s>": ``factory(s)``) with the largest order listed by default
+and, where the family ends, the largest order that exists.
+
+The table is static, so :func:`available_methods` is complete in a fresh process;
+each factory is imported on first use (a lazy entry), so naming the estimated rules
+(Ee, ABe<s>, defined in :mod:`sampledyn.estimate`) costs nothing until one is built,
+and no layer writes into this registry on import. :func:`register_family` adds a
+family of the user's at run time (after the built-in ones). Every other layer gets
+names and method objects from here and asks the objects what they are (the
+protocols of :mod:`sampledyn.methods._base`); nobody parses names.
 """
 
 from __future__ import annotations
 
+import importlib
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from ._base import Method
+from ._base import Method, Predictor
 
 __all__ = [
+    "BUILT_IN",
     "Family",
     "available_methods",
     "describe_methods",
     "families",
     "get_method",
+    "get_predictor",
     "register_family",
 ]
 
@@ -37,8 +47,9 @@ class Family:
         Its name pattern for people: "E", "AB<s>", ...; "<s>" stands for the order.
     pattern : re.Pattern
         Matches the names of its members; the group (if any) is the order.
-    factory : callable
-        ``factory(s)`` for a family of orders, ``factory()`` for a single rule.
+    factory : callable or str
+        ``factory(s)`` for a family of orders, ``factory()`` for a single rule; or
+        ``"module:attribute"`` naming it, imported on first use (:attr:`build`).
     description : str
     default_max_order : int or None
         Orders 1..default_max_order are listed by :func:`available_methods`; None for
@@ -49,7 +60,7 @@ class Family:
 
     key: str
     pattern: re.Pattern[str]
-    factory: Callable[..., Any]
+    factory: Callable[..., Any] | str
     description: str
     default_max_order: int | None = None
     max_order: int | None = None
@@ -77,15 +88,24 @@ class Family:
         ValueError
             for an order outside 1..max_order.
         """
+        make = self.resolve()
         if not self.ordered:
-            return self.factory()
+            return make()
         assert s is not None
         if s < 1 or (self.max_order is not None and s > self.max_order):
             allowed = ">= 1" if self.max_order is None else f"in 1..{self.max_order}"
             raise ValueError(
                 f"order `s` of {self.key} must be {allowed}, got {s} ({self.name(s)!r})."
             )
-        return self.factory(s)
+        return make(s)
+
+    def resolve(self) -> Callable[..., Any]:
+        """The factory itself, importing its module first for a lazy entry."""
+        if callable(self.factory):
+            return self.factory
+        module, _, attr = self.factory.partition(":")
+        factory: Callable[..., Any] = getattr(importlib.import_module(module), attr)
+        return factory
 
 
 _FAMILIES: dict[str, Family] = {}
@@ -94,7 +114,7 @@ _FAMILIES: dict[str, Family] = {}
 def register_family(
     key: str,
     pattern: str,
-    factory: Callable[..., Any],
+    factory: Callable[..., Any] | str,
     description: str,
     *,
     default_max_order: int | None = None,
@@ -111,8 +131,9 @@ def register_family(
     pattern : str
         Regular expression matching the member names (full match); one group, the
         order, for a family of orders, none for a single rule.
-    factory : callable
-        ``factory(s)`` or ``factory()``, returning a method object.
+    factory : callable or str
+        ``factory(s)`` or ``factory()``, returning a method object; or
+        ``"module:attribute"`` naming it (imported on first use).
     description : str
         One line for ``sampledyn methods`` and error messages.
     default_max_order, max_order : int, optional
@@ -140,6 +161,46 @@ def register_family(
             _check_disjoint(fam, other)
     _FAMILIES[key] = fam
     return fam
+
+
+#: The built-in families, in listing order (available_methods, ``sampledyn methods``,
+#: the figures): (key, pattern, factory, description, default_max_order, max_order).
+#: Adding a family is one row here and its module.
+BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
+    ("E", r"E", "sampledyn.methods._adams:Euler", "Euler (= AB1 = RK1)", None, None),
+    (
+        "AB<s>", r"AB(\d+)", "sampledyn.methods._adams:AdamsBashforth",
+        "Adams-Bashforth, s >= 1 (s > 6 warns: stability interval below 0.05)", 6, None,
+    ),
+    ("T", r"T", "sampledyn.methods._tustin:Tustin", "Tustin, implicit trapezoid", None, None),
+    (
+        "RK<s>", r"RK(\d+)", "sampledyn.methods._runge_kutta:RungeKutta",
+        "Runge-Kutta, s in [1, 2, 3, 4]", 4, 4,
+    ),
+    (
+        "ABu<s>", r"ABu(\d+)", "sampledyn.methods._held:HeldInputAdamsBashforth",
+        "Adams-Bashforth with the input held over the predicted interval (f-history at "
+        "u_n), s >= 1", 6, None,
+    ),
+    (
+        "ABj<s>", r"ABj(\d+)", "sampledyn.methods._jump:JumpAwareAdamsBashforth",
+        "Adams-Bashforth with the input held and the f-history rebuilt after an input "
+        "jump (order s across jumps), s >= 1", 6, None,
+    ),
+    (
+        "Ee", r"Ee", "sampledyn.estimate._estimated:estimated_euler",
+        "estimated Euler (= ABe1)", None, None,
+    ),
+    (
+        "ABe<s>", r"ABe(\d+)", "sampledyn.estimate._estimated:EstimatedAdamsBashforth",
+        "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1", 6, None,
+    ),
+    (
+        "ZOH", r"ZOH", "sampledyn.methods._exact:ExactHold",
+        "exact zero-order hold: the flow over h with the input held (a discrete-time "
+        "system only; its linearisation is the matrix exponential)", None, None,
+    ),
+)  # fmt: skip
 
 
 def _check_disjoint(a: Family, b: Family) -> None:
@@ -171,7 +232,7 @@ def get_method(name: Any) -> Method:
         for anything that is neither a name nor a method object.
     """
     if not isinstance(name, str):
-        if hasattr(name, "predict") and hasattr(name, "name"):
+        if isinstance(name, Method):
             return name
         raise TypeError(f"`method` must be a name or a method object, got {type(name).__name__}.")
     key = name.strip()
@@ -183,6 +244,26 @@ def get_method(name: Any) -> Method:
     raise ValueError(f"unknown method {name!r}; valid names: {valid}.")
 
 
+def get_predictor(name: Any, argument: str | None = "method") -> Predictor:
+    """:func:`get_method`, for a rule that predicts on sampled data.
+
+    Raises
+    ------
+    ValueError
+        for a rule that is a discrete-time system only (ZOH), naming ``argument``
+        (``None``: the caller names it, as :func:`get_method`'s messages leave it to).
+    """
+    m = get_method(name)
+    if not isinstance(m, Predictor):
+        where = "" if argument is None else f"`{argument}` "
+        raise ValueError(
+            f"{where}{m.name!r} does not predict on sampled data (it is a discrete-time "
+            "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
+            "(`sampledyn methods` lists them)."
+        )
+    return m
+
+
 def available_methods() -> tuple[str, ...]:
     """Every usable name of every registered family, orders up to each family's
     default largest one (E, AB1-AB6, T, RK1-RK4, ABu1-ABu6, ...)."""
@@ -192,3 +273,8 @@ def available_methods() -> tuple[str, ...]:
 def describe_methods() -> dict[str, str]:
     """Family key -> one-line description."""
     return {k: f.description for k, f in _FAMILIES.items()}
+
+
+for _row in BUILT_IN:
+    register_family(*_row[:4], default_max_order=_row[4], max_order=_row[5])
+del _row

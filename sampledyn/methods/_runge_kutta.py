@@ -31,7 +31,7 @@ from ._base import (
     sample_f,
     stage_inputs,
 )
-from ._registry import register_family
+from ._program import Combination, Stage, StepProgram, stage_jacobians
 
 __all__ = ["RK_BLOCK", "TABLEAUX", "ButcherTableau", "RungeKutta"]
 
@@ -135,36 +135,6 @@ TABLEAUX: dict[int, ButcherTableau] = {
         4,
     ),
 }
-
-
-# z = x_n, the input held over the interval; the arithmetic of RungeKutta.predict.
-_RK_STEP = """
-S = {s}
-_A = np.array({a!r})
-_B = np.array({b!r})
-_C = np.array({c!r})
-
-
-@njit(cache=CACHE, error_model="numpy")
-def step(t, z, u, p, h, out):
-    nx = z.shape[0]
-    K = np.empty((S, nx))
-    xi = np.empty(nx)
-    for i in range(S):
-        for j in range(nx):
-            xi[j] = z[j]
-        for m in range(i):
-            if _A[i, m] != 0.0:
-                c = h * _A[i, m]
-                for j in range(nx):
-                    xi[j] += c * K[m, j]
-        rhs(t + _C[i] * h, xi, u, p, K[i])
-    for j in range(nx):
-        incr = 0.0
-        for i in range(S):
-            incr += _B[i] * K[i, j]
-        out[j] = z[j] + h * incr
-"""
 
 
 @dataclass(frozen=True)
@@ -283,37 +253,6 @@ class RungeKutta(FixedRule):
             _combine(xb, hb, b, tuple(ks), out[1 + lo : 1 + blk.stop], True)
         return out
 
-    def _stages(self, model: Any, data: Trajectory, signal: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Predictions and d x_hat[k] / d x[k-1] forward-mode through the stages:
-        ``dk_i = F(y_i) (I + h sum_j a_ij dk_j)``, ``Phi = I + h sum_i b_i dk_i``
-        (h_n per interval on a non-uniform grid)."""
-        tab = self.tableau
-        h, steps = grid_steps(data)
-        hh, hhh = steps[:, None], steps[:, None, None]  # broadcast over x and over F
-        t0 = data.t[:-1]
-        x0 = data.x[:-1]
-        eye = np.eye(data.nx)
-        ks: list[np.ndarray] = []
-        dks: list[np.ndarray] = []
-        for i in range(tab.stages):
-            xi = x0.copy()
-            dxi = np.broadcast_to(eye, (x0.shape[0], data.nx, data.nx)).copy()
-            for j in range(i):
-                if tab.a[i][j] != 0:
-                    xi += (hh * float(tab.a[i][j])) * ks[j]
-                    dxi += (hhh * float(tab.a[i][j])) * dks[j]
-            ci = float(tab.c[i])
-            ti = t0 + ci * steps
-            ui = stage_inputs(data, signal, ci, None if h is not None else steps)
-            ks.append(model.f(ti, xi, ui))
-            dks.append(np.asarray(model.jacobian(ti, xi, ui)) @ dxi)
-        out = nan_rows(data, (data.nx,))
-        incr = sum(float(bi) * k for bi, k in zip(tab.b, ks, strict=True))
-        out[1:] = x0 + hh * incr
-        phi = nan_rows(data, (1, data.nx, data.nx))
-        phi[1:, 0] = eye + hhh * sum(float(b) * dk for b, dk in zip(tab.b, dks, strict=True))
-        return out, phi
-
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """``G = h sum_i |b_i| K_i`` with ``K_i = L (I + h sum_j |a_ij| K_j)``: stage i
         moves by at most ``K_i delta``. For a scalar L and the classical RK4 this is
@@ -346,87 +285,39 @@ class RungeKutta(FixedRule):
         cache: dict[Any, Any] | None = None,
     ) -> np.ndarray:
         """``d x_hat[k] / d x[k-1]`` through the stages of eq. (8), with the stage
-        inputs :meth:`predict` uses; shape (N, 1, nx, nx)."""
+        inputs :meth:`predict` uses (h_n per interval on a non-uniform grid): the
+        forward mode of :attr:`discrete_step` over every interval at once
+        (:func:`~sampledyn.methods._program.stage_jacobians`); shape (N, 1, nx, nx)."""
+        phi = nan_rows(data, (1, data.nx, data.nx))
         if data.n_samples < 2:
-            return nan_rows(data, (1, data.nx, data.nx))
-        return self._stages(model, data, signal)[1]
+            return phi
+        h, steps = grid_steps(data)
+
+        def inputs(c: float) -> np.ndarray:
+            return stage_inputs(data, signal, c, None if h is not None else steps)
+
+        phi[1:, 0] = stage_jacobians(
+            self.discrete_step, model, data.t[:-1], data.x[:-1], steps, inputs
+        )
+        return phi
 
     # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
 
     @property
-    def state_layout(self) -> tuple[tuple[str, int], ...]:
-        """z = x_n: one block, the state."""
-        return (("x", 0),)
-
-    def step_source(self) -> str:
-        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``np``), the
-        arithmetic of :meth:`predict` with the input held over the interval."""
+    def discrete_step(self) -> StepProgram:
+        """z = x_n, the input held: the stages of eq. (8) from the tableau, ``y_i = x_n +
+        sum_j (h a_ij) k_j`` (a_ij != 0) and ``x_{n+1} = x_n + h sum_i b_i k_i``, in the
+        order of :meth:`predict`'s compiled passes."""
         tab = self.tableau
-        return _RK_STEP.format(
-            s=tab.stages,
-            a=[[float(v) for v in row] for row in tab.a],
-            b=[float(v) for v in tab.b],
-            c=[float(v) for v in tab.c],
+        stages = []
+        for i in range(tab.stages):
+            terms = tuple((float(a), ("k", j)) for j, a in enumerate(tab.a[i][:i]) if a != 0)
+            point: Any = Combination(("z", 0), terms) if terms else ("z", 0)
+            stages.append(Stage(float(tab.c[i]), point))
+        update = Combination(
+            ("z", 0), tuple((float(b), ("k", i)) for i, b in enumerate(tab.b)), True
         )
-
-    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
-        """x_{n+1} in vector arithmetic (numpy or CasADi), the input held."""
-        tab = self.tableau
-        x0 = blocks[0]
-        ks: list[Any] = []
-        for i in range(tab.stages):
-            xi = x0
-            for j in range(i):
-                if tab.a[i][j] != 0:
-                    xi = xi + (h * float(tab.a[i][j])) * ks[j]
-            ks.append(f(t + float(tab.c[i]) * h, xi, u))
-        incr = float(tab.b[0]) * ks[0]
-        for bi, k in zip(tab.b[1:], ks[1:], strict=True):
-            incr = incr + float(bi) * k
-        return [x0 + h * incr]
-
-    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
-        """(A_d, B_d), shapes (nx, nx), (nx, nu), forward mode through the stages of
-        eq. (8) with the input held: ``dk_i = F_i (I + h sum_j a_ij dk_j)``, ``dku_i =
-        F_i h sum_j a_ij dku_j + G_i``; ``A = I + h sum b_i dk_i``, ``B = h sum b_i
-        dku_i`` (F_i, G_i: df/dx, df/du at stage i)."""
-        tab = self.tableau
-        x0 = np.asarray(z, dtype=float)
-        u = np.asarray(u, dtype=float)
-        eye = np.eye(model.nx)
-        ks: list[np.ndarray] = []
-        dks: list[np.ndarray] = []
-        dus: list[np.ndarray] = []
-        for i in range(tab.stages):
-            xi, dxi, dui = x0.copy(), eye.copy(), np.zeros((model.nx, model.nu))
-            for j in range(i):
-                if tab.a[i][j] != 0:
-                    c = h * float(tab.a[i][j])
-                    xi += c * ks[j]
-                    dxi += c * dks[j]
-                    dui += c * dus[j]
-            ti = float(t) + float(tab.c[i]) * h
-            ks.append(np.asarray(model.f(ti, xi, u), dtype=float))
-            F = np.asarray(model.jacobian(ti, xi, u), dtype=float)
-            dks.append(F @ dxi)
-            dus.append(F @ dui + np.asarray(model.input_jacobian(ti, xi, u), dtype=float))
-        A = eye + h * sum(float(b) * dk for b, dk in zip(tab.b, dks, strict=True))
-        B = h * sum(float(b) * du for b, du in zip(tab.b, dus, strict=True))
-        return A, B
-
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
-        """z = x."""
-        return np.array(x, dtype=float)
-
-
-register_family(
-    "RK<s>",
-    r"RK(\d+)",
-    RungeKutta,
-    f"Runge-Kutta, s in {sorted(TABLEAUX)}",
-    default_max_order=max(TABLEAUX),
-    max_order=max(TABLEAUX),
-)
+        return StepProgram(self.name, (("x", 0),), tuple(stages), update)
 
 
 def _combine(

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from .._trajectory import NumericalError, Trajectory
+from .._trajectory import Trajectory
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
-from ._registry import register_family
+from ._program import Combination, ConvergenceError, Stage, StepProgram
 
 __all__ = ["NEWTON_BLOCK", "ConvergenceError", "Tustin"]
 
@@ -32,50 +32,6 @@ __all__ = ["NEWTON_BLOCK", "ConvergenceError", "Tustin"]
 # 2.4 MB for nx = 12) stay in cache across its iterations instead of streaming the
 # factors of every interval through memory once per iteration.
 NEWTON_BLOCK = 2048
-
-
-class ConvergenceError(NumericalError):
-    """An implicit rule's Newton iteration did not converge."""
-
-
-# z = x_n, the input held; Newton with the model's Jacobian as in Tustin.predict.
-_T_STEP = """
-TOL = {tol!r}
-MAX_ITER = {max_iter}
-
-
-@njit(cache=CACHE, error_model="numpy")
-def step(t, z, u, p, h, out):
-    nx = z.shape[0]
-    f0 = np.empty(nx)
-    f1 = np.empty(nx)
-    J = np.empty((nx, nx))
-    x = np.empty(nx)
-    g = np.empty(nx)
-    rhs(t, z, u, p, f0)
-    for j in range(nx):
-        x[j] = z[j] + h * f0[j]
-    t1 = t + h
-    ok = False
-    for _ in range(MAX_ITER):
-        rhs(t1, x, u, p, f1)
-        jac(t1, x, u, p, J)
-        for j in range(nx):
-            g[j] = -(x[j] - z[j] - 0.5 * h * (f0[j] + f1[j]))
-        M = -0.5 * h * J
-        for j in range(nx):
-            M[j, j] += 1.0
-        dx = np.linalg.solve(M, g)
-        ok = True
-        for j in range(nx):
-            x[j] += dx[j]
-            if abs(dx[j]) > TOL * (1.0 + abs(x[j])):
-                ok = False
-        if ok:
-            break
-    for j in range(nx):
-        out[j] = x[j] if ok else np.nan
-"""
 
 
 @dataclass(frozen=True)
@@ -257,55 +213,22 @@ class Tustin(FixedRule):
     # ---- discrete-time state-space form (used by sampledyn.discretize) ----------
 
     @property
-    def state_layout(self) -> tuple[tuple[str, int], ...]:
-        """z = x_n: one block, the state."""
-        return (("x", 0),)
-
-    def step_source(self) -> str:
-        """numba source of ``step(t, z, u, p, h, out)`` (globals ``rhs``, ``jac``,
-        ``np``): the Newton iteration of :meth:`predict` for one interval, input held;
-        NaN where it does not converge."""
-        return _T_STEP.format(tol=float(self.tol), max_iter=int(self.max_iter))
-
-    def step_blocks(self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, implicit=None):
-        """x_{n+1} solving ``x - x_n - h/2 (f(t_n, x_n, u) + f(t_n + h, x, u)) = 0``:
-        ``implicit(residual, guess)`` is the caller's root finder (e.g. CasADi's)."""
-        if implicit is None:
-            raise ValueError("Tustin is implicit: `implicit(residual, guess)` is needed.")
-        x0 = blocks[0]
-        f0 = f(t, x0, u)
-        return [implicit(lambda x: x - x0 - (0.5 * h) * (f0 + f(t + h, x, u)), x0 + h * f0)]
-
-    def linearize(self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float):
-        """(A_d, B_d) of the trapezoid step, shapes (nx, nx), (nx, nu): with x_{n+1}
-        solved by Newton, ``A = (I - h/2 F_1)^-1 (I + h/2 F_0)`` and ``B = (I - h/2
-        F_1)^-1 h/2 (G_0 + G_1)`` (F, G: df/dx, df/du at either end). On a linear
-        model this is the bilinear (Tustin) map."""
-        x0 = np.asarray(z, dtype=float)
-        u = np.asarray(u, dtype=float)
-        t0, t1 = float(t), float(t) + h
-        eye = np.eye(model.nx)
-        f0 = np.asarray(model.f(t0, x0, u), dtype=float)
-        x = x0 + h * f0
-        for _ in range(self.max_iter):
-            g = x - x0 - 0.5 * h * (f0 + model.f(t1, x, u))
-            dx = np.linalg.solve(eye - 0.5 * h * model.jacobian(t1, x, u), -g)
-            x = x + dx
-            if (np.abs(dx) <= self.tol * (1.0 + np.abs(x))).all():
-                break
-        else:
-            raise ConvergenceError(
-                f"Tustin's Newton iteration did not converge in {self.max_iter} iterations "
-                f"at t={t0:g} s; use a smaller h or raise `max_iter`."
-            )
-        lhs = eye - 0.5 * h * np.asarray(model.jacobian(t1, x, u), dtype=float)
-        A = np.linalg.solve(lhs, eye + 0.5 * h * np.asarray(model.jacobian(t0, x0, u)))
-        G = np.asarray(model.input_jacobian(t0, x0, u)) + np.asarray(model.input_jacobian(t1, x, u))
-        return A, np.linalg.solve(lhs, 0.5 * h * G)
-
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0):
-        """z = x."""
-        return np.array(x, dtype=float)
+    def discrete_step(self) -> StepProgram:
+        """z = x_n, the input held: the trapezoid as a two-stage diagonally implicit
+        program, ``k_0 = f(t_n, x_n, u)`` and x_{n+1} solving ``x = x_n + h (k_0 / 2 +
+        f(t_n + h, x, u) / 2)`` by Newton's method with the model's Jacobian from the
+        Euler predictor (``tol``, ``max_iter`` as :meth:`predict`). Its linearisation is
+        ``A = (I - h/2 F_1)^-1 (I + h/2 F_0)``, ``B = (I - h/2 F_1)^-1 h/2 (G_0 + G_1)``:
+        on a linear model the bilinear (Tustin) map."""
+        half = Combination(("z", 0), ((0.5, ("k", 0)),), True)
+        return StepProgram(
+            "Tustin",
+            (("x", 0),),
+            (Stage(0.0, ("z", 0)), Stage(1.0, half, implicit=0.5)),
+            ("y", 1),
+            tol=float(self.tol),
+            max_iter=int(self.max_iter),
+        )
 
 
 @njit(cache=True)
@@ -409,6 +332,3 @@ def _chord(x, x0, f0, f1, lu, perm, h, active, tol, left, prev, done, slow):  # 
             not done[i] and theta**left * q > _KAPPA * tol * (1.0 - theta)
         )
         prev[r] = q
-
-
-register_family("T", r"T", Tustin, "Tustin, implicit trapezoid")

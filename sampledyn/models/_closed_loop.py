@@ -30,6 +30,7 @@ from numba.extending import intrinsic
 
 from . import _codegen
 from ._base import (
+    JAC_BLOCK_ROWS,
     RHS_SIG,
     CompiledModel,
     JacobianUnavailableError,
@@ -37,6 +38,7 @@ from ._base import (
     _as_batch,
     _compiled,
 )
+from ._jumps import refuse_jumps
 
 __all__ = ["ClosedLoop", "FeedbackLaw", "LinearFeedback", "stack_buffer"]
 
@@ -346,6 +348,11 @@ class ClosedLoop(CompiledModel):
                 f"`law` maps {law.nx} states to {law.nu} inputs, the plant has "
                 f"nx={plant.nx} and nu={plant.nu}."
             )
+        refuse_jumps(
+            plant, "plant", "a ClosedLoop does not carry the plant's branches of f, so its "
+            "simulation could not cross or slide; write the loop as one SymbolicModel (the "
+            "law substituted for the input).",
+        )  # fmt: skip
         self.plant = plant
         self.law = law
         self._name = name
@@ -524,7 +531,13 @@ class ClosedLoop(CompiledModel):
         check = getattr(self.plant, "check_states", None)
         if check is not None:
             check(x)  # what the plant's own jacobian checks (a vehicle's pitch)
-        return parts(t, x, r, self.kernel()[1])
+        p, rows = self.kernel()[1], JAC_BLOCK_ROWS
+        if x.shape[0] <= rows:
+            return parts(t, x, r, p)
+        # in blocks, so that Ctrl-C and SIGTERM act between them (the same numbers)
+        blocks = [parts(t[a : a + rows], x[a : a + rows], r[a : a + rows], p)
+                  for a in range(0, x.shape[0], rows)]  # fmt: skip
+        return np.concatenate([b[0] for b in blocks]), np.concatenate([b[1] for b in blocks])
 
     def _batch(self, t: Any, x: Any, r: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
         """(t, x, r) as a batch, and whether it was one state: one float64 state

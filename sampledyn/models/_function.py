@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 from numba.core.errors import NumbaError
 
+from . import _closed_loop, _codegen, _jumps
 from ._base import JAC_SIG, RHS_SIG, JacobianUnavailableError, ParameterArrayModel
 
 __all__ = ["FunctionModel"]
@@ -139,6 +140,25 @@ class FunctionModel(ParameterArrayModel):
     kink_states, kink_inputs : sequence of int
         States and inputs whose zero crossings are kinks of f (inside ``|.|``): the
         exact simulator ends its steps there.
+    switching : function, optional
+        ``switching(t, x, u, p, out)`` writing m switching values g (out shape (m,),
+        m = ``len(switching_names)``): f is smooth between their zero crossings, and
+        the exact simulator ends its steps on them (instead of ``kink_states`` and
+        ``kink_inputs``).
+    switching_names : sequence of str
+        One name per switching value, for messages (required with ``switching``).
+    jumps : sequence of int
+        The switching values across which f itself jumps (a ``math.copysign``, an
+        ``if`` on the state): f must then compute the branch of each side and read
+        the side s_j = -1 or +1 of jump j (in the order of ``jumps``) from
+        ``p[n_params + j]``, never from the sign of the switching value itself; the
+        simulator crosses and slides (Filippov) as for a
+        :class:`~sampledyn.models.SymbolicModel`. Needs ``switching_jacobian``.
+        Without a declaration, an f that jumps stalls the simulator, which then
+        stops with an error saying to declare it.
+    switching_jacobian : function, optional
+        ``switching_jacobian(t, x, u, p, out)`` writing the gradients of the
+        switching values, out shape (m, nx + 1 + nu): columns dg/dx, dg/dt, dg/du.
     state_names, state_units, input_names, input_units : sequence of str, optional
     param_units : mapping {name: str}, optional
     x0 : array_like, shape (nx,), optional
@@ -166,6 +186,10 @@ class FunctionModel(ParameterArrayModel):
         params: Mapping[str, float] | None = None,
         kink_states: Sequence[int] = (),
         kink_inputs: Sequence[int] = (),
+        switching: Any = None,
+        switching_names: Sequence[str] | None = None,
+        jumps: Sequence[int] = (),
+        switching_jacobian: Any = None,
         state_names: Sequence[str] | None = None,
         state_units: Sequence[str] | None = None,
         input_names: Sequence[str] | None = None,
@@ -194,9 +218,15 @@ class FunctionModel(ParameterArrayModel):
         self.kink_states = tuple(int(i) for i in kink_states)
         self.kink_inputs = tuple(int(j) for j in kink_inputs)
         self.name = str(name)
+        self._switching = _Switching.check(
+            self, switching, switching_names, jumps, switching_jacobian
+        )
 
         nxs = f"({nx},)"
         self._rhs = _compile(f, "f", nxs, RHS_SIG)
+        if self._switching is not None:
+            self._switching.compile(self)
+            self._branch, self._rhs = self._rhs, self._switching.surface_rhs(self)
         self._jac = None if jac is None else _compile(jac, "jac", f"({nx}, {nx})", JAC_SIG)
         self._jac_u = (
             None
@@ -204,6 +234,8 @@ class FunctionModel(ParameterArrayModel):
             else _compile(input_jac, "input_jac", f"({nx}, {nu})", JAC_SIG)
         )
         args = (0.0, self._x0, np.zeros(self.nu), self._p)
+        if self._switching is not None:
+            self._switching.check_calls(self, args)
         _checked_call(self._rhs, "f", (self.nx,), args)
         if self._jac is not None:
             _checked_call(self._jac, "jac", (self.nx, self.nx), args)
@@ -212,6 +244,36 @@ class FunctionModel(ParameterArrayModel):
 
     def kernel(self) -> tuple[Any, np.ndarray]:
         return self._rhs, self._p
+
+    def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
+        """The declared ``switching`` values (or, without, those of ``kink_states``
+        and ``kink_inputs``)."""
+        sw = self._switching
+        if sw is None:
+            return super().switch_kernel()
+        return sw.kernel, self._p, np.zeros(len(sw.names), dtype=np.bool_)
+
+    def switching_names(self) -> tuple[str, ...]:
+        sw = self._switching
+        if sw is None:
+            names = [self.state_names[i] for i in self.kink_states]
+            return tuple(names + [self.input_names[j] for j in self.kink_inputs])
+        return sw.names
+
+    def jump_kernel(self) -> tuple[Any, Any, np.ndarray, np.ndarray] | None:
+        """The declared jumps for :func:`sampledyn.simulate` (see
+        :meth:`sampledyn.models.SymbolicModel.jump_kernel`), or None."""
+        sw = self._switching
+        if sw is None or not sw.jumps:
+            return None
+        info = np.full((len(sw.names), 2), -1, dtype=np.int64)
+        info[:, 1] = 0
+        for j, k in enumerate(sw.jumps):
+            # whether g depends on u is not known: the sides are checked wherever the
+            # input jumps (only where g changed there)
+            info[k] = (self._p.size + j, 1)
+        q = np.concatenate([self._p, np.ones(len(sw.jumps))])
+        return self._branch, sw.gradient, q, info
 
     def jacobian_kernel(self) -> tuple[Any, np.ndarray]:
         if self._jac is None:
@@ -245,3 +307,91 @@ class FunctionModel(ParameterArrayModel):
         return (
             f"FunctionModel(name={self.name!r}, nx={self.nx}, nu={self.nu}, params={self.params})"
         )
+
+
+class _Switching:
+    """A FunctionModel's declared switching values and jumps (checked, compiled)."""
+
+    def __init__(self, function: Any, names: tuple[str, ...], jumps: tuple[int, ...], jac: Any):
+        self.function, self.names, self.jumps, self.jac = function, names, jumps, jac
+        self.kernel: Any = None
+        self.gradient: Any = None
+
+    @classmethod
+    def check(
+        cls, model: Any, function: Any, names: Any, jumps: Any, jac: Any
+    ) -> _Switching | None:
+        jumps = tuple(jumps)
+        if function is None:
+            if jumps or jac is not None or names is not None:
+                raise ValueError(
+                    "`jumps`, `switching_names` and `switching_jacobian` need `switching=`, "
+                    "the function that writes the switching values."
+                )
+            return None
+        if model.kink_states or model.kink_inputs:
+            raise ValueError(
+                "give either `switching=` or `kink_states`/`kink_inputs`, not both (add the "
+                "kinks to the switching values)."
+            )
+        if names is None or isinstance(names, str) or not all(isinstance(n, str) for n in names):
+            raise ValueError(
+                "`switching_names` must name each switching value (a sequence of str; its "
+                f"length is their number), got {names!r}."
+            )
+        names = tuple(names)
+        bad = [k for k in jumps if not (isinstance(k, int | np.integer) and 0 <= k < len(names))]
+        if bad or len(set(jumps)) != len(jumps):
+            raise ValueError(
+                f"`jumps` must hold distinct indices in [0, {len(names)}) (one per switching "
+                f"value across which f jumps), got {list(jumps)}."
+            )
+        if jumps and jac is None:
+            raise ValueError(
+                "`jumps` needs `switching_jacobian=`, writing dg/dx, dg/dt, dg/du of the "
+                f"switching values (out shape ({len(names)}, nx + 1 + nu)): the simulator "
+                "decides crossing or sliding from the normal speeds."
+            )
+        return cls(function, names, tuple(int(k) for k in jumps), jac)
+
+    def compile(self, model: Any) -> None:
+        m = len(self.names)
+        self.kernel = _compile(self.function, "switching", f"({m},)", RHS_SIG)
+        if self.jac is not None:
+            shape = f"({m}, {model.nx + 1 + model.nu})"
+            self.gradient = _compile(self.jac, "switching_jacobian", shape, JAC_SIG)
+
+    def surface_rhs(self, model: Any) -> Any:
+        """f of the model: its branches at the sides the state is on, the Filippov
+        selection on a surface (:data:`sampledyn.models._jumps.SURFACE_RHS`); the
+        branch kernel itself without jumps."""
+        if not self.jumps:
+            return model._rhs
+        source = (
+            "import numpy as np\nfrom numba import njit\n"
+            "from sampledyn.models._base import RHS_SIG\n\nCACHE = _SAMPLEDYN_CACHE\n"
+            + _jumps.surface_source(self.jumps, len(self.names), model._p.size)
+            + "\nSIGNATURES = {'rhs': RHS_SIG}\n"
+        )
+        module = _codegen.load_module(
+            source,
+            kind="function_jumps",
+            globals_={
+                "_branch_k": model._rhs,
+                "_switch_k": self.kernel,
+                "_switch_grad_k": self.gradient,
+                "decide": _jumps.decide,
+                "sliding_weight": _jumps.sliding_weight,
+                "stack_buffer": _closed_loop.stack_buffer,
+            },
+        )
+        return _codegen.compiled(module, "rhs")
+
+    def check_calls(self, model: Any, args: tuple) -> None:
+        m = len(self.names)
+        _checked_call(self.kernel, "switching", (m,), args)
+        if self.gradient is not None:
+            _checked_call(self.gradient, "switching_jacobian", (m, model.nx + 1 + model.nu), args)
+        if self.jumps:
+            q = np.concatenate([model._p, np.ones(len(self.jumps))])
+            _checked_call(model._branch, "f", (model.nx,), (*args[:3], q))

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _codegen
+from . import _closed_loop, _codegen, _jumps
 from ._base import LinearForm, ParameterArrayModel, _as_batch, finite_number
 
 __all__ = ["SymbolicModel"]
@@ -237,38 +237,97 @@ def _cse_body(
 
 
 # -------------------------------------------------------------------- derivation
-def _kinks(sp: Any, exprs: Sequence[Any], variables: set[Any]) -> list[Any]:
-    """Switching functions of every non-smooth node, each once (up to sign)."""
-    found: dict[Any, None] = {}
+def _switching(sp: Any, g: Any) -> Any:
+    """A switching function in its one form up to sign (-g if sympy can extract a
+    minus sign from g)."""
+    g = sp.sympify(g)
+    return -g if g.could_extract_minus_sign() else g
 
-    def add(g: Any) -> None:
+
+def _kinks(sp: Any, exprs: Sequence[Any], variables: set[Any]) -> tuple[list[Any], set[Any]]:
+    """Switching functions of every non-smooth node, each once (up to sign), and
+    those across which f may jump: the arguments of ``sign`` and ``Heaviside`` and
+    the relations of ``Piecewise`` conditions (``Abs``, ``Max`` and ``Min`` are
+    continuous: kinks only)."""
+    found: dict[Any, None] = {}
+    jumps: set[Any] = set()
+
+    def add(g: Any, jump: bool) -> None:
         g = sp.sympify(g)
         if not (g.free_symbols & variables):
             return  # constant in time: never crosses
-        if g.could_extract_minus_sign():
-            g = -g
+        g = _switching(sp, g)
         found.setdefault(g, None)
+        if jump:
+            jumps.add(g)
 
     def relations(cond: Any) -> None:
         if isinstance(cond, sp.core.relational.Relational):
-            add(cond.lhs - cond.rhs)
+            add(cond.lhs - cond.rhs, True)
         elif isinstance(cond, sp.logic.boolalg.BooleanFunction):
             for c in cond.args:
                 relations(c)
 
     for e in exprs:
         for node in sp.preorder_traversal(e):
-            if isinstance(node, sp.Abs | sp.sign | sp.Heaviside):
-                add(node.args[0])
-            elif isinstance(node, sp.Max | sp.Min):
-                args = node.args
-                for i in range(len(args)):
-                    for j in range(i + 1, len(args)):
-                        add(args[i] - args[j])
-            elif isinstance(node, sp.Piecewise):
+            if isinstance(node, sp.Piecewise):
                 for _, cond in node.args:
                     relations(cond)
-    return list(found)
+            else:
+                for g, jump in _node_switching(sp, node):
+                    add(g, jump)
+    return list(found), jumps
+
+
+def _node_switching(sp: Any, node: Any) -> list[tuple[Any, bool]]:
+    """(switching function, f jumps across it) of one non-smooth node other than
+    Piecewise: the argument of Abs (a kink), sign and Heaviside (jumps), the pairwise
+    differences of the arguments of Max and Min (kinks)."""
+    if isinstance(node, sp.Abs | sp.sign | sp.Heaviside):
+        return [(node.args[0], not isinstance(node, sp.Abs))]
+    if isinstance(node, sp.Max | sp.Min):
+        a = node.args
+        return [(a[i] - a[j], False) for i in range(len(a)) for j in range(i + 1, len(a))]
+    return []
+
+
+def _branches(sp: Any, e: Any, real: Mapping[Any, Any], sides: Mapping[Any, Any]) -> Any:
+    """``e`` on one side of every jump: ``sign``, ``Heaviside`` and the relations of
+    ``Piecewise`` conditions whose switching function g is a jump are replaced by the
+    side symbol s of g (+-1): sign(+-g) = +-s, Heaviside(+-g) = (1 +- s)/2, g > 0 (or
+    >=) is s > 0, g < 0 (or <=) is s < 0, g = 0 is false, g != 0 true. So the formula's
+    value on the surface itself never enters a branch."""
+
+    def side(a: Any) -> Any:
+        g = sp.sympify(a).xreplace(real).doit()
+        if g in sides:
+            return sides[g]
+        if -g in sides:
+            return -sides[-g]
+        return None
+
+    def branch_sign(node: Any) -> Any:
+        s = side(node.args[0])
+        return node if s is None else s
+
+    def branch_heaviside(node: Any) -> Any:
+        s = side(node.args[0])
+        return node if s is None else (1 + s) / 2
+
+    def branch_relation(node: Any) -> Any:
+        rel = sp.core.relational
+        s = side(node.lhs - node.rhs)
+        if s is None:
+            return node
+        if isinstance(node, rel.Equality):
+            return sp.false
+        if isinstance(node, rel.Unequality):
+            return sp.true
+        return s > 0 if isinstance(node, rel.GreaterThan | rel.StrictGreaterThan) else s < 0
+
+    e = e.replace(lambda n: isinstance(n, sp.sign), branch_sign)
+    e = e.replace(lambda n: isinstance(n, sp.Heaviside), branch_heaviside)
+    return e.replace(lambda n: isinstance(n, sp.core.relational.Relational), branch_relation)
 
 
 def _linear_params(sp: Any, f: Sequence[Any], params: Sequence[Any]) -> list[int]:
@@ -286,6 +345,57 @@ def _linear_params(sp: Any, f: Sequence[Any], params: Sequence[Any]) -> list[int
     return chosen
 
 
+def _jump_kernels(
+    sp: Any,
+    printer: Any,
+    names: dict[Any, str],
+    real: Mapping[Any, Any],
+    f_given: list[Any],
+    kinks: list[Any],
+    jumps: tuple[int, ...],
+    xs: list[Any],
+    us: list[Any],
+    time: Any,
+    n_p: int,
+) -> tuple[list[str], list[str]]:
+    """The kernels of a model with jumps (see :mod:`sampledyn.models._jumps`): the
+    branch kernel (the sides read from ``p[NP + j]``), the gradients of the switching
+    functions (rows dg/dx, dg/dt, dg/du) and f, the branch of the sides the state is
+    on, with the Filippov selection on a surface (the second list: after ``sw``)."""
+    sides = {}
+    for j, k in enumerate(jumps):
+        s = sp.Dummy(f"side{j}", real=True)
+        names[s] = f"p[{n_p + j}]"
+        sides[kinks[k]] = s
+    branch = [_branches(sp, e, real, sides) for e in f_given]
+    t_real = real[time] if time is not None else None
+    grad = [
+        [sp.diff(g, x) for x in xs]
+        + [sp.diff(g, t_real) if t_real is not None else sp.S.Zero]
+        + [sp.diff(g, u) for u in us]
+        for g in kinks
+    ]
+    grad = [[e.replace(sp.DiracDelta, lambda *a: sp.S.Zero) for e in row] for row in grad]
+    targets = [(f"out[{i}, {j}]", e) for i, row in enumerate(grad) for j, e in enumerate(row)]
+    imports = [
+        _codegen.object_import_line(_jumps.__name__, name, name)
+        for name in ("decide", "sliding_weight")
+    ]
+    imports.append(
+        _codegen.object_import_line(_closed_loop.__name__, "stack_buffer", "stack_buffer")
+    )
+    kernels = [
+        _kernel("branch", _rhs_body(sp, printer, names, branch)),
+        _kernel("swjac", _cse_body(sp, printer, names, targets)),
+    ]
+    tail = [
+        "\n\n" + "\n".join(str(line) for line in imports),
+        "_branch_k = branch\n_switch_k = sw\n_switch_grad_k = swjac",
+        _jumps.surface_source(jumps, len(kinks), n_p),
+    ]
+    return kernels, tail
+
+
 @dataclass
 class _Code:
     """Everything derived from the expressions; shared by ``with_params`` copies."""
@@ -297,6 +407,8 @@ class _Code:
     switch_input_only: tuple[bool, ...]
     kink_states: tuple[int, ...]
     kink_inputs: tuple[int, ...]
+    jumps: tuple[int, ...]  # switching values across which f jumps
+    jump_inputs: tuple[bool, ...]  # per jump: its switching function depends on u
     linear: tuple[int, ...]
     expressions: dict[str, Any]  # sympy objects, for users
     module: ModuleType | None = field(default=None, repr=False)
@@ -434,7 +546,11 @@ def _build(
     jac = [[no_delta(sp.diff(e, x)) for x in xs] for e in f]
     jac_u = [[no_delta(sp.diff(e, u)) for u in us] for e in f]
     variables = set(xs) | set(us) | ({real[time]} if time is not None else set())
-    kinks = _kinks(sp, f, variables)
+    kinks, jump_set = _kinks(sp, f, variables)
+    # A jump that depends on no state is a jump of the input only: f(t, x, u(t))
+    # then jumps in time, which integrating across the located instant handles (a
+    # kink of the integrand); only surfaces in the state need branches.
+    jumps = tuple(k for k, g in enumerate(kinks) if g in jump_set and g.free_symbols & set(xs))
     input_only = tuple(bool(g.free_symbols & variables <= set(us)) for g in kinks)
     kink_states = tuple(i for i, x in enumerate(xs) if x in kinks)
     kink_inputs = tuple(j for j, u in enumerate(us) if u in kinks)
@@ -453,10 +569,16 @@ def _build(
     def matrix(rows: list[list[Any]]) -> list[tuple[str, Any]]:
         return [(f"out[{i}, {j}]", e) for i, row in enumerate(rows) for j, e in enumerate(row)]
 
+    if jumps:
+        rhs_parts, tail = _jump_kernels(
+            sp, printer, names, real, f_given, kinks, jumps, xs, us, time, n_p
+        )
+    else:
+        rhs_parts, tail = [_kernel("rhs", _rhs_body(sp, printer, names, f_given))], []
     parts = [
         _HEADER,
         f"NX = {nx}\nNU = {nu}\nNP = {n_p}\nNSW = {len(kinks)}\nNLIN = {len(linear)}",
-        _kernel("rhs", _rhs_body(sp, printer, names, f_given)),
+        *rhs_parts,
         _kernel("jac", _cse_body(sp, printer, names, matrix(jac))),
         _kernel("jac_u", _cse_body(sp, printer, names, matrix(jac_u))),
         _kernel(
@@ -466,6 +588,7 @@ def _build(
         _kernel(
             "reg0", _cse_body(sp, printer, names, [(f"out[{i}]", e) for i, e in enumerate(reg0)])
         ),
+        *tail,
     ]
     for name, shape in (
         ("rhs", "NX"),
@@ -480,7 +603,9 @@ def _build(
         '    "rhs": RHS_SIG,\n    "jac": JAC_SIG,\n    "jac_u": JAC_SIG,\n    "sw": RHS_SIG,\n'
         '    "reg": JAC_SIG,\n    "reg0": RHS_SIG,\n    "batch_rhs": BATCH_RHS_SIG,\n'
         '    "batch_jac": BATCH_JAC_SIG,\n    "batch_jac_u": BATCH_JAC_SIG,\n'
-        '    "batch_reg": BATCH_JAC_SIG,\n    "batch_reg0": BATCH_RHS_SIG,\n}\n'
+        '    "batch_reg": BATCH_JAC_SIG,\n    "batch_reg0": BATCH_RHS_SIG,\n'
+        + ('    "branch": RHS_SIG,\n    "swjac": JAC_SIG,\n' if jumps else "")
+        + "}\n"
     )
     source = "\n".join(parts)
     expressions = {
@@ -488,6 +613,7 @@ def _build(
         "jacobian": sp.Matrix(jac) if nx else sp.Matrix(),
         "input_jacobian": sp.Matrix(nx, nu, [e for row in jac_u for e in row]),
         "kinks": tuple(kinks),
+        "jumps": tuple(kinks[k] for k in jumps),
         "linear_params": tuple(params[k] for k in linear),
         # the symbols of f(t, x, u; p), in the order of t, x, u and the parameter array
         "states": tuple(states),
@@ -503,6 +629,8 @@ def _build(
         switch_input_only=input_only,
         kink_states=kink_states,
         kink_inputs=kink_inputs,
+        jumps=jumps,
+        jump_inputs=tuple(bool(kinks[k].free_symbols & set(us)) for k in jumps),
         linear=tuple(linear),
         expressions=expressions,
     )
@@ -656,6 +784,34 @@ class SymbolicModel(ParameterArrayModel):
         input_only = np.array(self._code.switch_input_only, dtype=np.bool_)
         return self._kernel("sw"), self._p, input_only
 
+    def jump_kernel(self) -> tuple[Any, Any, np.ndarray, np.ndarray] | None:
+        """The kernels of f's jumps for :func:`sampledyn.simulate`, or None if f has
+        none (see :mod:`sampledyn.models._jumps`).
+
+        Returns
+        -------
+        (branch, grad, q, sw_info)
+            The branch kernel, the gradient kernel of the switching functions
+            (out shape (n_sw, nx + 1 + nu)), a writable copy of the parameters with
+            one side (+1) per jump appended, and ``sw_info`` (n_sw, 2) int: the
+            position of each switching value's side in q (-1: a kink) and 1 where a
+            jump's switching function depends on the input.
+        """
+        code = self._code
+        if not code.jumps:
+            return None
+        n_sw = len(code.switch_input_only)
+        info = np.full((n_sw, 2), -1, dtype=np.int64)
+        info[:, 1] = 0
+        for j, k in enumerate(code.jumps):
+            info[k] = (self._p.size + j, int(code.jump_inputs[j]))
+        q = np.concatenate([self._p, np.ones(len(code.jumps))])
+        return self._kernel("branch"), self._kernel("swjac"), q, info
+
+    def switching_names(self) -> tuple[str, ...]:
+        """The switching functions as text, in the order of :meth:`switch_kernel`."""
+        return tuple(str(g) for g in self._code.expressions["kinks"])
+
     def regressors(self, t: Any, x: Any, u: Any) -> LinearForm:
         """``f = Phi @ theta + f0`` for the parameters f is linear in.
 
@@ -690,7 +846,13 @@ class SymbolicModel(ParameterArrayModel):
         return batch(tt, xx, uu, self._p)
 
     def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
-        """Exact ``df/dx`` (``sympy.diff`` of f), shape (N, nx, nx) (or (nx, nx))."""
+        """Exact ``df/dx`` (``sympy.diff`` of f), shape (N, nx, nx) (or (nx, nx)).
+
+        Where f jumps (``sign``, ``Heaviside``, ``Piecewise`` of a state) this is the
+        Jacobian of the branch of the side the state is on (the Dirac deltas of the
+        jump dropped): across the switching surface f has no Jacobian, and a
+        linearisation on it is refused (:meth:`sampledyn.discretize.DiscreteModel.linearize`).
+        """
         return super().jacobian(t, x, u)
 
     def input_jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:

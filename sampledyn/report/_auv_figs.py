@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..methods import get_method
+from ..methods import Estimator, get_method
 
 __all__ = ["plot_error_vs_order"]
 
@@ -63,7 +63,9 @@ def _panel(
 ) -> None:
     single = [f for f, fr in families.items() if len({r["order"] for r in fr}) == 1]
     markers = dict(zip(single, "osD^v<>pPX*h", strict=False))
-    estimated = {f for f, fr in families.items() if get_method(fr[0]["method"]).estimates_params}
+    estimated = {
+        f for f, fr in families.items() if isinstance(get_method(fr[0]["method"]), Estimator)
+    }
     curves = [f for f in families if f not in markers]
     # Solid curves carry the h_u/h labels; a second solid family gets another line style.
     solid = dict(zip([f for f in curves if f not in estimated], ("-", "-.", ":"), strict=False))
@@ -108,3 +110,56 @@ def _panel(
     ax.grid(True, which="both", alpha=0.3)
     if labelled:
         ax.legend(fontsize=6, ncol=2)
+
+
+_PANELS = (
+    ("rms_away_from_jumps", "whose history holds no input jump"),
+    ("rms_smooth", "away from input jumps and velocity zero crossings"),
+)
+
+
+def _missing_notes(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The reasons of the n/a entries of the tables, once each."""
+    reasons: dict[str, set[Any]] = {}
+    for r in rows:
+        for note in filter(None, str(r.get("notes", "")).split("; ")):
+            column, _, why = note.partition(": ")
+            reasons.setdefault(f"{column}: {why}", set()).add(r["hold_ratio"])
+    return [
+        f"n/a ({text.split(': ', 1)[0]}, h_u/h = {', '.join(map(str, sorted(ratios)))}): "
+        f"{text.split(': ', 1)[1]}"
+        for text, ratios in reasons.items()
+    ]
+
+
+def auv_report(output: Any, out: Path, *, store: Any = None) -> list[str]:
+    """The report of ``reproduce fig2`` / ``fig3`` (a
+    :class:`~sampledyn.experiments.StudyOutput` of the AUV-like study): writes
+    ``<study>.csv`` and ``<study>.png`` into ``out``; returns the lines to print (the
+    norm's table, the masked rms tables, why an entry is n/a, the files)."""
+    from ._tables import format_grid, write_csv
+
+    which, study, rows = output.study, output.settings, output.rows
+    csv_path = write_csv(rows, out / f"{which}.csv")
+    title = (
+        f"AUV-like (9)-(10): h={study.h:g} s, T={study.T:g} s, errors t>={study.after:g} s, "
+        f"seed {study.seed}"
+    )
+    panels = ((study.norm, "all samples"), *_PANELS)
+    png = plot_error_vs_order(rows, out / f"{which}.png", norms=panels, title=title)
+    tau = min(r["tau_min"] for r in rows)
+    cert = max(r["certificate"] for r in rows)
+    lines = [
+        f"{which}: {study.norm} norm of the one-step local errors (both states), "
+        f"t >= {study.after:g} s",
+        f"sampling period h = {study.h:g} s; fastest local time constant along the runs "
+        f"{tau:.3g} s (h / tau = {study.h / tau:.2g}); exact samples certified to "
+        f"{cert:.1e} per interval",
+        format_grid(rows, "method", "hold_ratio", study.norm, col_title="hu/h"),
+    ]
+    for key, caption in _PANELS:
+        lines.append(f"\nrms over the samples {caption}:")
+        lines.append(format_grid(rows, "method", "hold_ratio", key, col_title="hu/h"))
+    lines += _missing_notes(rows)
+    lines.append(f"wrote {csv_path} and {png}")
+    return lines

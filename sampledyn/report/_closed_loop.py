@@ -174,3 +174,31 @@ def plot_multistep(summary: list[dict[str, Any]], path: str | Path, *, title: st
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def _controller_report(output: Any, out: Path, table: str, png: Path) -> list[str]:
+    from ._tables import write_csv
+
+    stem = output.study.replace("-", "_")
+    write_csv(output.rows, out / f"{stem}_runs.csv")
+    csv_path = write_csv(output.summary, out / f"{stem}.csv")
+    (out / f"{stem}.md").write_text(table + "\n", encoding="utf-8")
+    return [table, f"wrote {csv_path}, {out / f'{stem}_runs.csv'}, {out / f'{stem}.md'} and {png}"]
+
+
+def closed_loop_report(output: Any, out: Path, *, store: Any = None) -> list[str]:
+    """The report of ``reproduce closed-loop``: writes ``closed_loop_runs.csv``,
+    ``closed_loop.csv``, ``closed_loop.md`` and ``closed_loop.png`` into ``out``;
+    returns the lines to print (the table, the files)."""
+    out.mkdir(parents=True, exist_ok=True)
+    png = plot_closed_loop(output.summary, out / "closed_loop.png")
+    return _controller_report(output, out, closed_loop_table(output.summary), png)
+
+
+def multistep_report(output: Any, out: Path, *, store: Any = None) -> list[str]:
+    """The report of ``reproduce multistep``: writes ``multistep_runs.csv``,
+    ``multistep.csv``, ``multistep.md`` and ``multistep.png`` into ``out``; returns the
+    lines to print (the table, the files)."""
+    out.mkdir(parents=True, exist_ok=True)
+    png = plot_multistep(output.summary, out / "multistep.png")
+    return _controller_report(output, out, multistep_table(output.summary), png)

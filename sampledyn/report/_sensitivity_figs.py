@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..methods import get_method
+from ..methods import get_predictor
 from ..sensitivity import ErrorCurves
 
 __all__ = [
@@ -43,7 +43,7 @@ def _save(fig: Any, path: str | Path) -> Path:
 def _family(name: str) -> int:
     """Row of the figure: 0 for rules that use f at the samples only (E, AB_s, ...),
     1 for those that evaluate f between samples (RK_s, T)."""
-    return int(get_method(name).intersample)
+    return int(get_predictor(name).intersample)
 
 
 def plot_crossing(

@@ -35,8 +35,8 @@ def ab_orders(methods: Any) -> dict[int, str]:
             m = get_method(name)
         except ValueError:  # a name no longer registered: not one of the AB rules
             continue
-        if m.family == "AB":
-            out.setdefault(int(m.order), name)
+        if m.family == "AB" and m.order is not None:
+            out.setdefault(m.order, name)
     return dict(sorted(out.items()))
 
 

@@ -22,7 +22,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from ..experiments.sweep import CELL_COLUMNS
 from ._sweep_figs import ab_orders, noise_label, plot_order, plot_ratio_maps
 
 __all__ = ["ReportFiles", "write_report"]
@@ -44,6 +43,8 @@ STUDY_COLUMNS = (
 # The study of a cell of another kind: its norm column holds the kind's measure
 # (several per study, e.g. the horizons k of a multistep study), its input is none.
 KIND_STUDY_COLUMNS = tuple(c for c in STUDY_COLUMNS if c not in ("norm", "input"))
+# (The prediction cells come from the store's prediction view, whose measure is "norm";
+# the other kinds' from its generic table, whose measure is "measure".)
 
 Block = tuple[Any, ...]
 
@@ -234,6 +235,8 @@ def _complete_mean(values: Any) -> float:
 
 
 def _kind_blocks(i: int, key: dict[str, Any], cells: Any, trajs: Any) -> list[Block]:
+    from ..experiments.sweep import get_cell_kind
+
     """A study of another cell kind: its named results, means over seeds per (h,
     noise, method) (and per measure, pivoted, when it has several)."""
     buoy = key.get("buoyancy_pct")
@@ -260,17 +263,16 @@ def _kind_blocks(i: int, key: dict[str, Any], cells: Any, trajs: Any) -> list[Bl
         heads = ["h (s)", "status", "shared part (s)", "messages"]
         blocks.append(("table", "What the cells of each h share, computed once.", heads, rows))
     ok = cells[cells["status"] == "ok"]
-    base = {n for n, _type in CELL_COLUMNS}
-    named = [c for c in ok.columns if c not in base and ok[c].notna().any() and _numeric(ok[c])]
-    quantities = [q for q in ("err_eta", "err_v") if ok[q].notna().any()] + named
-    measures = list(dict.fromkeys(ok["norm"]))
+    declared = [n for n, _t in get_cell_kind(key["kind"]).columns]
+    quantities = [q for q in declared if ok[q].notna().any() and _numeric(ok[q])]
+    measures = list(dict.fromkeys(ok["measure"]))
     groups = ["h", "eta_pct", "v_pct", "method"]
     order = {m: n for n, m in enumerate(dict.fromkeys(ok["method"]))}
     if len(measures) > 1:
         for q in quantities:
-            if ok.groupby("norm")[q].nunique(dropna=False).max() <= 1:
+            if ok.groupby("measure")[q].nunique(dropna=False).max() <= 1:
                 continue  # the same for every cell of a measure (e.g. its k)
-            means = ok.groupby([*groups, "norm"], sort=False)[q].agg(_complete_mean)
+            means = ok.groupby([*groups, "measure"], sort=False)[q].agg(_complete_mean)
             rows = []
             for (h, e, v, m), _sub in sorted(
                 ok.groupby(groups, sort=False), key=lambda g: (g[0][0], g[0][1], g[0][2],
@@ -423,7 +425,7 @@ def write_report(
     """
     from ..experiments.sweep import load_results as load
 
-    cells = load(source)
+    cells = load(source)  # generic: every kind's cells
     if cells.empty:
         raise ValueError(f"`source` {str(source)!r} holds no cells; run `sampledyn sweep` first.")
     trajs = load(source, "trajectories")
@@ -442,9 +444,8 @@ def write_report(
         ),
     ]
     figures: list[Path] = []
-    kinds = cells["kind"].fillna("prediction") if "kind" in cells.columns else None
-    predicted = cells if kinds is None else cells[kinds == "prediction"]
-    others = cells.iloc[0:0] if kinds is None else cells[kinds != "prediction"]
+    predicted = load(source, kind="prediction")  # the prediction view (norm, err_eta...)
+    others = cells[cells["kind"] != "prediction"]
     i = 0
     for values, sub in predicted.groupby(list(STUDY_COLUMNS), dropna=False, sort=False):
         i += 1

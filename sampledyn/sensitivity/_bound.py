@@ -29,6 +29,12 @@ values; the bound is on their maximum over the samples.
   excess over the first-order term, ``G(L_D+) - G(L_D)``, is O(||delta||^2) and
   replaces the paper's ``s o_v + s o_eta``. (Runge-Kutta and Tustin stages are assumed
   to stay inside D+.)
+
+The Jacobian and second-order terms need f Lipschitz on D+: true of the vehicles,
+whose f is continuous (|v| v and n |n| are kinks). A model whose f jumps (``sign``,
+``Heaviside`` or ``Piecewise`` of a state: Coulomb friction, a relay) has no Jacobian
+across its switching surfaces and no such bound; its Jacobian there is that of one
+branch (:meth:`sampledyn.models.SymbolicModel.jacobian`).
 """
 
 from __future__ import annotations

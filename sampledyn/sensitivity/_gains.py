@@ -22,21 +22,24 @@ from typing import Any
 
 import numpy as np
 
-from ..methods import Method, get_method
+from ..methods import NoiseAnalysis, Predictor, get_method
 
 __all__ = ["error_constant", "first_order_gain", "noise_gain", "supported_method"]
 
 
-def supported_method(method: Any, argument: str = "method") -> Method:
-    """The method object for ``method``; only fixed rules (not estimated) have a bound.
+def supported_method(method: Any, argument: str = "method") -> Any:
+    """The method object for ``method``: a predictor with a noise bound (a
+    :class:`~sampledyn.methods.Predictor` and :class:`~sampledyn.methods.NoiseAnalysis`,
+    the fixed rules; not the estimated ones, nor ZOH).
 
     Raises
     ------
     ValueError
-        for a rule that estimates its parameters on the data (Ee, ABe_s).
+        for a rule without a bound: one that estimates its parameters on the data
+        (Ee, ABe_s), or one that predicts nothing on sampled data (ZOH).
     """
     m = get_method(method)
-    if m.estimates_params:
+    if not (isinstance(m, NoiseAnalysis) and isinstance(m, Predictor)):
         raise ValueError(
             f"`{argument}` = {m.name!r} has no noise bound: only the fixed rules (E, "
             "AB<s>, RK<s>, T, ...) do (estimated rules change their parameters with "
@@ -60,8 +63,7 @@ def first_order_gain(method: Any) -> Fraction:
     ``a_s = sum |a_i|`` for AB_s; ``sum |b_i|`` (= 1 for the built-in tableaux) for
     RK_s; 1 for Tustin.
     """
-    gain = supported_method(method).first_order_gain
-    assert gain is not None  # fixed rules have one
+    gain: Fraction = supported_method(method).first_order_gain
     return gain
 
 

@@ -1,4 +1,5 @@
-"""Input signals: random multilevel, sinusoidal thruster rpm, zero-order hold."""
+"""Input signals: random multilevel, sinusoidal thruster rpm, zero-order hold; the
+named inputs of sweep files and studies (:data:`INPUTS`)."""
 
 from ._base import InputSpec as InputSpec
 from ._base import Signal as Signal
@@ -7,10 +8,14 @@ from ._fig6 import fig6_thrusters as fig6_thrusters
 from ._fig6 import thruster_roles as thruster_roles
 from ._multilevel import Multilevel as Multilevel
 from ._multilevel import ZeroOrderHold as ZeroOrderHold
+from ._names import INPUTS as INPUTS
+from ._names import input_for as input_for
 from ._sinusoid import Sinusoidal as Sinusoidal
 
 __all__ = [
     "FIG6_TABLE",
+    "INPUTS",
+    "input_for",
     "InputSpec",
     "fig6_thrusters",
     "thruster_roles",

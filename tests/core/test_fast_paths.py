@@ -84,7 +84,7 @@ def test_the_integrator_uses_the_whole_table():
     """The arrays the compiled integrator freezes into its code are SciPy's 12 stages."""
     from scipy.integrate._ivp import dop853_coefficients as ref
 
-    sim_module = importlib.import_module("sampledyn.simulate")
+    sim_module = importlib.import_module("sampledyn._integrator")
     n = ref.N_STAGES
     for ours, theirs in (
         (sim_module._A, ref.A[:n, :n]),
@@ -338,13 +338,10 @@ def test_closed_loop_jacobian_is_the_chain_rule_through_the_plant_bit_for_bit():
 
 
 def test_ab_rollout_takes_f_from_one_table(rexrov_data):
-    from sampledyn.discretize._model import _rule, _uses_f_table
-
     veh, _sig, data = rexrov_data
     for name, uses in (("AB4", True), ("AB1", False), ("ABu4", False), ("RK4", False),
                        ("T", False), ("E", False)):  # fmt: skip
-        rule, layout = _rule(name)
-        assert _uses_f_table(rule, layout) is uses, name
+        assert sd.get_method(name).discrete_step.takes_f0 is uses, name
     dm = sd.discretize(veh, "AB4", 0.1)
     assert np.array_equal(dm.rollout(data, 1), sd.predict("AB4", veh, data), equal_nan=True)
     for k in (2, 5):  # k steps from the z of the data, the first from f at the sample

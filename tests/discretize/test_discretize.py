@@ -287,12 +287,11 @@ def test_closed_loop_tracks_as_the_design_predicts(rexrov):
     follows the linear closed-loop prediction on the exact zero-order-hold model, and
     the gap is second order in the initial error (it falls 4x when that halves)."""
     from sampledyn.experiments import design_lqr, trim
-    from sampledyn.experiments._closed_loop import _zoh  # the test's reference
 
     h = 0.02
     x, u = trim(rexrov, 0.5, 5.0, 0.5)
     design = design_lqr(rexrov, "RK4", h, x, u)
-    Az, Bz = _zoh(rexrov, x, u, h)
+    Az, Bz = discretize(rexrov, "ZOH", h).linearize(x, u)  # the exact ZOH, checked in test_zoh
     K = design.law.gain
     Acl = Az + Bz @ K
     gaps = []

@@ -68,7 +68,11 @@ def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     kill_when_stored(proc, db, 14)
     with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
-        finished = dict(conn.execute("SELECT key, result FROM cells").fetchall())
+        finished = dict(
+            conn.execute(
+                "SELECT key, json_array(outcome, depth_p95, effort_rms) FROM cells"
+            ).fetchall()
+        )
     assert 14 <= len(finished) < 98, "the kill landed before or after the run"
     assert main([*args, "--out", str(tmp_path / "b")]) == 0
     printed = capsys.readouterr().out
@@ -77,7 +81,11 @@ def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
     assert all(int(p) == int(c) + int(f) == 49 for p, c, f in runs)
     assert sum(int(f) for _p, _c, f in runs) == len(finished)
     with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
-        after = dict(conn.execute("SELECT key, result FROM cells").fetchall())
+        after = dict(
+            conn.execute(
+                "SELECT key, json_array(outcome, depth_p95, effort_rms) FROM cells"
+            ).fetchall()
+        )
         status = [r[0] for r in conn.execute("SELECT status FROM runs ORDER BY started_at")]
     assert len(after) == 98 and {k: after[k] for k in finished} == finished
     # The killed run's record stays "running" (or "abandoned" once another run took
@@ -102,7 +110,7 @@ def test_closed_loop_store_resumes_after_sigkill(tmp_path, capsys):
 def test_a_closed_loop_sweep_file_plans_the_studys_cells(tmp_path):
     """A sweep file of kind closed_loop is the study's grid: the same cell keys as
     ``reproduce closed-loop`` plans, so either fills the other's store."""
-    study = ClosedLoopStudy(vehicles=("rexrov",), h_values=(0.5,), T=20.0, transient=5.0, seeds=2)
+    study = ClosedLoopStudy(vehicle=("rexrov",), h=(0.5,), T=20.0, after=5.0, seeds=2)
     f = tmp_path / "cl.toml"
     f.write_text(
         'kind = "closed_loop"\nvehicle = "rexrov"\nbuoyancy_pct = 1.0\nT = 20.0\nafter = 5.0\n'
@@ -110,9 +118,9 @@ def test_a_closed_loop_sweep_file_plans_the_studys_cells(tmp_path):
         "noise = [[0, 0], [2, 2], [10, 10], [20, 20]]\nseeds = 2\nrtol = 1e-10\n"
         "setpoint = { depth = 5.0 }\n"
     )
-    from sampledyn.experiments._closed_loop import _config
+    from sampledyn.experiments import CLOSED_LOOP_STUDY
 
-    ours = plan_study(_config(study, "rexrov"))
+    (ours,) = map(plan_study, CLOSED_LOOP_STUDY.configs(study))
     theirs = plan_study(load_config(f))
     assert [c.key for c in theirs.iter_cells()] == [c.key for c in ours.iter_cells()]
     assert theirs.n_cells == 49 and "1 measures" in theirs.size_text()

@@ -62,10 +62,10 @@ def test_example_sweep_is_the_built_in_fig7_study():
     blue = ROVStudy(vehicle="bluerov2_heavy").config()
     assert blue.feedback == {"law": "roll_pitch_hold", "kp": 40.0, "kd": 6.0, "n_lin_frac": 0.3}
     assert ROVStudy(vehicle="bluerov2_heavy", attitude_hold=False).config().feedback is None
-    held = ROVStudy(vehicle="rexrov", attitude_hold=True, kp=9000.0).config()
+    held = ROVStudy(vehicle="rexrov", attitude_hold=True, hold_gains=(9000.0, 7200.0)).config()
     assert held.feedback["law"] == "roll_pitch_hold" and held.feedback["kp"] == 9000.0
     with pytest.raises(ValueError, match="attitude hold"):
-        ROVStudy(vehicle="rexrov", kp=1.0).config()
+        ROVStudy(vehicle="rexrov", hold_gains=(1.0, 1.0)).config()
 
 
 def test_reproduce_fig7_and_the_sweep_file_agree_bit_for_bit(tmp_path, capsys):

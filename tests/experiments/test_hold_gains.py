@@ -29,9 +29,9 @@ def test_each_vehicle_gets_the_gains_of_its_table_entry(tmp_path):
     assert (rex.feedback["kp"], rex.feedback["kd"]) == (16000.0, 7200.0)
     blue = ROVStudy(vehicle="bluerov2_heavy").config()
     assert (blue.feedback["kp"], blue.feedback["kd"]) == (40.0, 6.0)
-    # A gain given here wins; the other stays the table's.
-    mixed = ROVStudy(vehicle="rexrov", attitude_hold=True, kd=5000.0).config()
-    assert (mixed.feedback["kp"], mixed.feedback["kd"]) == (16000.0, 5000.0)
+    # Gains given here win over the table's.
+    mixed = ROVStudy(vehicle="rexrov", attitude_hold=True, hold_gains=(9000.0, 5000.0)).config()
+    assert (mixed.feedback["kp"], mixed.feedback["kd"]) == (9000.0, 5000.0)
     # A vehicle the table does not list: the law's defaults.
     own = tmp_path / "my_rov.toml"
     own.write_text((FIG7_STUDY_FILE.parents[2] / "models" / "vehicles" / "rexrov.toml").read_text())
@@ -76,7 +76,7 @@ def test_reproduce_fig7_hold_gains(tmp_path, capsys):
 @pytest.mark.parametrize(
     "extra, status, message",
     [
-        (["--no-attitude-hold", "--hold-gains", "1,2"], EXIT_USAGE, "--no-attitude-hold"),
+        (["--no-attitude-hold", "--hold-gains", "1,2"], EXIT_BAD_VALUE, "--no-attitude-hold"),
         (["--hold-gains", "40"], EXIT_BAD_VALUE, "two numbers > 0"),
         (["--hold-gains", "40,-6"], EXIT_BAD_VALUE, "got 40,-6"),
         (["--hold-gains", "40,nan"], EXIT_BAD_VALUE, "two numbers > 0"),

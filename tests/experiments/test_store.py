@@ -12,6 +12,7 @@ import time
 import tracemalloc
 from pathlib import Path
 
+import numpy as np
 import pytest
 from _faults import CLI, Unavailable, remount_readonly, tmpfs
 from _sweep_helpers import rows, write_sweep
@@ -96,7 +97,7 @@ def test_a_new_store_carries_the_mark_from_its_first_byte(tmp_path):
 
 def test_a_store_of_schema_1_is_recognised_and_upgraded(tmp_path):
     """Stores written before the mark (no application id, schema 1) stay usable."""
-    from sampledyn.experiments.sweep._store import _RUN_COLUMNS, _TRAJ_COLUMNS, CELL_COLUMNS
+    from sampledyn.experiments.sweep._store import _RUN_COLUMNS, _TRAJ_COLUMNS, CELL_COLUMNS_2
 
     def ddl(table, cols):
         return f"CREATE TABLE {table} (" + ", ".join(f'"{n}" {t}' for n, t in cols) + ")"
@@ -105,7 +106,7 @@ def test_a_store_of_schema_1_is_recognised_and_upgraded(tmp_path):
     with sqlite3.connect(db) as conn:
         conn.execute("CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT)")
         conn.execute("INSERT INTO meta VALUES ('schema_version', '1')")
-        conn.execute(ddl("cells", CELL_COLUMNS))
+        conn.execute(ddl("cells", CELL_COLUMNS_2[:-2]))  # schema 1: no kind, no result
         conn.execute(ddl("trajectories", _TRAJ_COLUMNS))
         conn.execute(ddl("runs", _RUN_COLUMNS[:13]))  # schema 1: no heartbeat, no counts
     cfg = write_sweep(tmp_path / "s.toml", h="[0.02]", seeds=1)
@@ -381,3 +382,96 @@ def test_a_transaction_left_open_by_an_interrupt_does_not_stop_marking_the_run(t
         st.finish_run(run, "interrupted", 0, 0)
         [(status,)] = st.connection().execute("SELECT status FROM runs").fetchall()
     assert status == "interrupted"
+
+
+# -- the generic cell: schema 3, views per kind, older stores ---------------------------
+
+
+def _schema_2_store(path: Path, rows: list[dict]) -> Path:
+    """A store as schema 2 wrote it: the prediction study's columns (norm, err_eta...)
+    and the named results of other kinds as JSON in ``result``."""
+    from sampledyn.experiments.sweep._store import (
+        _CLAIM_COLUMNS,
+        _RUN_COLUMNS,
+        _TRAJ_COLUMNS,
+        CELL_COLUMNS_2,
+    )
+
+    def ddl(table, cols):
+        return f"CREATE TABLE {table} (" + ", ".join(f'"{n}" {t}' for n, t in cols) + ")"
+
+    with sqlite3.connect(path) as conn:
+        conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+        conn.execute("CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT)")
+        conn.execute("INSERT INTO meta VALUES ('schema_version', '2')")
+        for table, cols in (("cells", CELL_COLUMNS_2), ("trajectories", _TRAJ_COLUMNS),
+                            ("runs", _RUN_COLUMNS), ("claims", _CLAIM_COLUMNS)):  # fmt: skip
+            conn.execute(ddl(table, cols))
+        for r in rows:
+            row = {"run_id": "r", "computed_at": 0.0, "status": "ok", "version": "0", "h": 0.5,
+                   "method": "AB2", "config": "{}", **r}  # fmt: skip
+            cols = ", ".join(f'"{k}"' for k in row)
+            conn.execute(f"INSERT INTO cells ({cols}) VALUES ({','.join('?' * len(row))})",
+                         tuple(row.values()))  # fmt: skip
+    return path
+
+
+_OLD_ROWS = [
+    {"key": "a", "norm": "rms", "err_eta": 1.5e-4, "err_v": 2.5e-4, "err_all": 3e-4},
+    {"key": "b", "kind": "closed_loop", "norm": "tracking",
+     "result": '{"depth_p95": 0.125, "one_step_rms": NaN, "outcome": "ok"}'},
+    {"key": "c", "kind": "multistep", "norm": "k=2", "err_eta": 0.5, "err_v": 0.25,
+     "result": '{"k": 2, "diverged": false}'},
+]  # fmt: skip
+
+
+def test_a_schema_2_store_is_read_as_it_is_and_moved_to_the_generic_layout(tmp_path):
+    db = _schema_2_store(tmp_path / "old.db", _OLD_ROWS)
+    before = db.read_bytes()
+    df = sd.results.load(db)  # read-only: the file is not changed
+    assert db.read_bytes() == before
+    assert list(df["kind"]) == ["prediction", "closed_loop", "multistep"]
+    assert list(df["measure"]) == ["rms", "tracking", "k=2"] and "norm" not in df.columns
+    assert df.loc[1, "depth_p95"] == 0.125 and df.loc[0, "err_eta"] == 1.5e-4
+    cl = sd.results.load(db, kind="closed_loop")
+    assert list(cl["measure"]) == ["tracking"] and "err_eta" not in cl.columns
+    assert cl.loc[0, "outcome"] == "ok" and np.isnan(cl.loc[0, "one_step_rms"])
+    ms = sd.results.load(db, kind="multistep")
+    assert list(ms["horizon"]) == ["k=2"] and ms["diverged"].tolist() == [False]
+    assert list(sd.results.load(db, kind="prediction")["norm"]) == ["rms"]
+    # Opened to write, it becomes schema 3: the generic table and a view per kind.
+    ResultStore(db).close()
+    with sqlite3.connect(db) as conn:
+        assert conn.execute("SELECT value FROM meta").fetchone()[0] == "3"
+        columns = {r[1] for r in conn.execute("PRAGMA table_info(cells)")}
+        assert {"measure", "depth_p95", "k"} <= columns and not {"norm", "result"} & columns
+        assert conn.execute("SELECT depth_p95, outcome FROM cells_closed_loop").fetchall() == [
+            (0.125, "ok")
+        ]
+        assert conn.execute("SELECT norm, err_eta FROM cells_prediction").fetchall() == [
+            ("rms", 1.5e-4)
+        ]
+        assert conn.execute("SELECT horizon, k FROM cells_multistep").fetchall() == [("k=2", 2)]
+    after = sd.results.load(db)
+    assert after.loc[1, "depth_p95"] == 0.125 and list(after["measure"]) == list(df["measure"])
+
+
+def test_a_schema_2_store_of_an_unknown_kind_is_refused_untouched(tmp_path):
+    db = _schema_2_store(tmp_path / "old.db", [{"key": "x", "kind": "mystery", "norm": "m"}])
+    before = db.read_bytes()
+    with pytest.raises(ValueError, match="kind 'mystery'.*left untouched"):
+        ResultStore(db)
+    assert db.read_bytes() == before
+    assert list(sd.results.load(db)["kind"]) == ["mystery"]  # still readable
+
+
+def test_new_stores_have_one_cells_table_and_a_view_per_kind(tmp_path):
+    db = tmp_path / "r.db"
+    run_sweep(write_sweep(tmp_path / "s.toml", h="[0.02]", seeds=1), db)
+    with sqlite3.connect(db) as conn:
+        views = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='view'")}
+        n = conn.execute("SELECT COUNT(*) FROM cells").fetchone()[0]
+        assert views == {"cells_prediction"}
+        assert conn.execute("SELECT COUNT(*) FROM cells_prediction").fetchone()[0] == n > 0
+        kinds = {r[0] for r in conn.execute("SELECT DISTINCT kind FROM cells")}
+    assert kinds == {"prediction"}

@@ -45,6 +45,17 @@ def test_bad_grid_entries_are_named(tmp_path, change, key):
     assert f"`{key}`" in str(exc.value)
 
 
+def test_a_rule_that_does_not_predict_is_refused_by_the_prediction_grid(tmp_path):
+    """ZOH is registered (a discrete-time system), but a prediction cell needs a
+    predictor: the grid refuses it, naming `methods` once and the reason."""
+    with pytest.raises(SweepConfigError) as exc:
+        load_config(write_sweep(tmp_path / "s.toml", methods='["AB2", "ZOH"]'))
+    assert exc.value.key == "methods"
+    message = str(exc.value)
+    assert "'ZOH' does not predict on sampled data" in message
+    assert message.count("`methods`") == 1 and "`method`" not in message
+
+
 def test_unknown_key_and_unknown_input_are_named(tmp_path):
     p = write_sweep(tmp_path / "s.toml")
     p.write_text(p.read_text() + "sead = 3\n")
@@ -82,8 +93,8 @@ def test_cell_values_match_the_library_pipeline(tmp_path):
     traj = sd.simulate(model, signal, T=cfg.T, h=0.02, x0=cfg.x0)
     measured = sd.add_noise(traj, 2.0, 5.0, np.random.SeedSequence([0, cell.seed]))
     err = sd.local_errors(sd.predict("RK4", model, measured, signal), measured)
-    assert row["err_eta"] == sd.error_norm(err, measured.t, "rms", cfg.after, [0])
-    assert row["err_v"] == sd.error_norm(err, measured.t, "rms", cfg.after, [1])
+    assert row["values"]["err_eta"] == sd.error_norm(err, measured.t, "rms", cfg.after, [0])
+    assert row["values"]["err_v"] == sd.error_norm(err, measured.t, "rms", cfg.after, [1])
 
 
 def test_rerun_computes_nothing_and_a_bigger_grid_only_the_new_cells(tmp_path):

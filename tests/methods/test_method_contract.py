@@ -1,8 +1,9 @@
 """The contract every registered method keeps, checked for every name the registry lists.
 
 Nothing here names a method: the rules come from ``available_methods()``, and a test
-that makes no sense for a rule is skipped by asking the rule (``estimates_params``,
-``error_constant`` ...). A new family enters every test by registering itself.
+that makes no sense for a rule is skipped by asking the rule which protocols it
+answers (``isinstance(m, Predictor)``, ``NoiseAnalysis``, ``Estimator``) or what it
+says (``error_constant`` ...). A new family enters every test by its registry row.
 """
 
 from __future__ import annotations
@@ -23,11 +24,20 @@ from _method_helpers import (
 )
 
 import sampledyn as sd
-import sampledyn.estimate  # noqa: F401 - registers the estimated rules (Ee, ABe_s)
-from sampledyn.methods import Method, available_methods, families, get_method
+from sampledyn.methods import (
+    DiscreteTimeSystem,
+    Estimator,
+    Method,
+    NoiseAnalysis,
+    Predictor,
+    available_methods,
+    families,
+    get_method,
+)
 
 NAMES = available_methods()
-FIXED = [n for n in NAMES if not get_method(n).estimates_params]
+PREDICTORS = [n for n in NAMES if isinstance(get_method(n), Predictor)]
+FIXED = [n for n in PREDICTORS if isinstance(get_method(n), NoiseAnalysis)]
 
 
 @pytest.fixture(scope="module")
@@ -55,10 +65,21 @@ def test_registry_lists_each_name_once_and_every_name_resolves():
             )
 
 
+def test_every_rule_answers_at_least_one_capability():
+    # A registered rule predicts, or is a discrete-time system, or both; the estimated
+    # rules predict but have neither a noise bound nor a fixed map.
+    for name in NAMES:
+        m = get_method(name)
+        assert isinstance(m, Predictor) or isinstance(m, DiscreteTimeSystem), name
+        if isinstance(m, Estimator):
+            assert not isinstance(m, NoiseAnalysis | DiscreteTimeSystem), name
+    assert set(FIXED) < set(PREDICTORS) < set(NAMES)
+
+
 def test_registry_holds_the_paper_rules():
     expected = {"E", "T", "Ee", *(f"AB{s}" for s in range(1, 7)), *(f"RK{s}" for s in range(1, 5))}
     expected |= {f"ABe{s}" for s in range(1, 7)}
-    assert expected <= set(NAMES)
+    assert expected <= set(NAMES) and "ZOH" in NAMES
 
 
 def test_registry_rejects_a_colliding_family():
@@ -75,16 +96,19 @@ def test_registry_rejects_a_colliding_family():
 def test_method_answers_the_protocol(name):
     m = get_method(name)
     assert isinstance(m.family, str) and m.family
-    assert isinstance(m.order, int) and m.order >= 1
+    assert m.order is None or (isinstance(m.order, int) and m.order >= 1)
     assert isinstance(m.history, int) and m.history >= 1
     assert isinstance(m.label, str) and m.label
-    assert isinstance(m.intersample, bool) and isinstance(m.estimates_params, bool)
-    if m.estimates_params:
-        assert m.first_order_gain is None and m.error_constant is None
-        with pytest.raises(ValueError, match="no noise gain"):
-            m.noise_gain(0.1, np.eye(2))
-    else:
+    if not isinstance(m, Predictor):
+        assert isinstance(m, DiscreteTimeSystem) and m.order is None  # ZOH: exact
+        return
+    assert isinstance(m.order, int) and isinstance(m.intersample, bool)
+    if isinstance(m, NoiseAnalysis):
         assert isinstance(m.first_order_gain, Fraction) and m.first_order_gain >= 1
+    else:  # no bound: the rule is estimated, sensitivity says so by name
+        assert isinstance(m, Estimator)
+        with pytest.raises(ValueError, match="no noise bound"):
+            sd.sensitivity.noise_gain(m, 0.1, np.eye(2))
     w = m.sample_weights
     if w is not None:
         assert len(w) == m.history
@@ -93,7 +117,7 @@ def test_method_answers_the_protocol(name):
 
 
 # ------------------------------------------------------------------ predictions
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", PREDICTORS)
 def test_shape_and_nan_rows_are_the_history(name, auv_run):
     model, signal, traj = auv_run
     m = get_method(name)
@@ -103,7 +127,7 @@ def test_shape_and_nan_rows_are_the_history(name, auv_run):
     assert np.isfinite(x_hat[m.history :]).all()
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", PREDICTORS)
 def test_bad_input_is_named(name, auv_run):
     model, signal, traj = auv_run
     t = traj.t.copy()

@@ -34,19 +34,13 @@ from ._config import SweepConfig as SweepConfig
 from ._config import SweepConfigError as SweepConfigError
 from ._config import check_time_grid as check_time_grid
 from ._config import load_config as load_config
-from ._inputs import available_feedback as available_feedback
-from ._inputs import available_inputs as available_inputs
 from ._inputs import build_model as build_model
-from ._inputs import check_input as check_input
-from ._inputs import make_input as make_input
-from ._inputs import register_feedback as register_feedback
-from ._inputs import register_input as register_input
-from ._norms import SMOOTH_HISTORY as SMOOTH_HISTORY
 from ._norms import NormSpec as NormSpec
 from ._norms import available_masks as available_masks
 from ._norms import away_from_jumps as away_from_jumps
 from ._norms import away_from_kinks as away_from_kinks
 from ._norms import parse_norm as parse_norm
+from ._norms import smooth_history as smooth_history
 from ._plan import Study as Study
 from ._plan import plan_study as plan_study
 from ._prediction import PREDICTION as PREDICTION
@@ -89,7 +83,6 @@ __all__ = [
     "DASK_WORKER_ENVIRON",
     "DEFAULT_MAX_CELLS",
     "LEASE_SECONDS",
-    "SMOOTH_HISTORY",
     "SUMMARIES",
     "NoiseGrid",
     "NormSpec",
@@ -100,15 +93,12 @@ __all__ = [
     "SweepConfig",
     "SweepConfigError",
     "SweepSummary",
-    "available_feedback",
-    "available_inputs",
     "available_masks",
     "backend_options",
     "away_from_jumps",
     "away_from_kinks",
     "build_model",
     "check_time_grid",
-    "check_input",
     "exact_samples",
     "check_dask_workers",
     "check_grid_size",
@@ -118,13 +108,11 @@ __all__ = [
     "load_results",
     "local_cluster",
     "retain_freed_memory",
-    "make_input",
     "motion_summary",
     "parse_norm",
+    "smooth_history",
     "plan_study",
     "prediction_inputs",
-    "register_feedback",
-    "register_input",
     "run_study",
     "run_sweep",
     "worker_init",

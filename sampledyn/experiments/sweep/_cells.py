@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-from ...methods import get_method
+from ...methods import get_method, get_predictor
 from ...models import ClosedLoop
 from ._norms import NormSpec
 
@@ -54,14 +54,17 @@ __all__ = [
 
 
 @lru_cache(maxsize=256)
-def cell_order(method: str) -> int:
-    """Order s of the registered method ``method`` (AB<s>, RK<s>: s; E: 1; T: 2; ...)."""
-    return int(get_method(method).order)
+def cell_order(method: str) -> int | None:
+    """Order s of the registered method ``method`` (AB<s>, RK<s>: s; E: 1; T: 2; ...;
+    None for an exact map, ZOH)."""
+    return get_method(method).order
 
 
 @dataclass(frozen=True)
 class Cell:
-    """One stored result: a method's error norm on one measured trajectory."""
+    """One planned cell: its key, its kind's coordinates (trajectory, h, noise pair,
+    seed, method, measure) and its configuration as canonical JSON. What it stores is
+    its kind's values (:attr:`CellKind.columns`)."""
 
     key: str
     traj_key: str
@@ -70,7 +73,7 @@ class Cell:
     v_pct: float
     seed: int
     method: str
-    norm: str
+    measure: str
     config: str  # canonical JSON
 
 
@@ -81,7 +84,7 @@ class Group:
     eta_pct: float
     v_pct: float
     seed: int
-    cells: tuple[tuple[str, str, str], ...]  # (key, method, norm)
+    cells: tuple[tuple[str, str, str], ...]  # (key, method, measure)
 
 
 @dataclass(frozen=True)
@@ -99,7 +102,7 @@ class PlannedGroup:
     def task_group(self, keys: set[str] | None = None) -> Group:
         """The :class:`Group` a worker computes: every cell, or those of ``keys``."""
         cells = tuple(
-            (c.key, c.method, c.norm) for c in self.cells if keys is None or c.key in keys
+            (c.key, c.method, c.measure) for c in self.cells if keys is None or c.key in keys
         )
         return Group(self.eta_pct, self.v_pct, self.seed, cells)
 
@@ -193,6 +196,14 @@ class CellKind:
         prepared on its own.
     measure_label : str
         What one entry of :meth:`measures` is called in messages ("norms").
+    measure_name : str
+        The name of the measure coordinate in the kind's view of the store ("norm"
+        of a prediction, "horizon" of a multistep study; the store's column is
+        ``measure``).
+    columns : tuple of (str, type)
+        The values one cell stores: column name and type (float, int, bool or
+        str). The store holds them in columns of these names (``cells`` table) and
+        shows them, with the common coordinates, in the view ``cells_<name>``.
 
     Every method gets the planned :class:`Setup` (pickled to the workers); the
     functions must be pure (same arguments, same numbers, on any worker).
@@ -205,6 +216,8 @@ class CellKind:
     needs_input: bool = True
     subsample: bool = True
     measure_label: str = "measures"
+    measure_name: str = "measure"
+    columns: tuple[tuple[str, type], ...] = ()
 
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         """The kind's own settings from a sweep file (keys of :attr:`option_keys`
@@ -212,8 +225,9 @@ class CellKind:
         return dict(options)
 
     def check_method(self, name: str) -> None:
-        """Raise (ValueError, naming it) if ``name`` is no method of this kind."""
-        get_method(name)
+        """Raise (ValueError, naming it) if ``name`` is no method of this kind (here:
+        a rule that predicts on sampled data)."""
+        get_predictor(name, None)  # the grid's check names `methods`
 
     def method_order(self, name: str) -> int | None:
         """The order stored with a cell of method ``name`` (None if it has none)."""
@@ -238,9 +252,8 @@ class CellKind:
     def compute(self, setup: Setup, shared: Any, chunk: Chunk) -> Any:
         """Every cell of ``chunk`` on the shared part ``shared`` of its trajectory:
         a :class:`~sampledyn.experiments.sweep.ChunkResult` with one row per cell
-        (``key``, ``status``, ``err_eta``, ``err_v``, ``err_all``, ``seconds``,
-        ``error``, ``warnings`` and, for named results, ``result``: a dict of
-        JSON-able values)."""
+        (``key``, ``status``, ``seconds``, ``error``, ``warnings`` and ``values``: a
+        dict of the kind's :attr:`columns`, empty or partial for a failed cell)."""
         raise NotImplementedError
 
     def warm_up(self, setup: Setup, h: float) -> None:
@@ -248,11 +261,30 @@ class CellKind:
         inherit the compiled code). Failures are left to the cells to report."""
         return None
 
+    def decode(self, row: dict[str, Any]) -> dict[str, Any]:
+        """A stored row's values in their types: NULL (or missing) as NaN for a float,
+        None otherwise; an int stored for a bool as the bool."""
+        out = {}
+        for name, typ in self.columns:
+            v = row.get(name)
+            if v is None:
+                out[name] = float("nan") if typ is float else None
+            else:
+                out[name] = typ(v)
+        return out
+
     def __repr__(self) -> str:
         return f"<cell kind {self.name!r}>"
 
 
 _KINDS: dict[str, CellKind] = {}
+#: The built-in kinds of the studies above the engine, imported on first use (so the
+#: table is complete in a fresh process, whatever was imported).
+_BUILT_IN: dict[str, str] = {
+    "prediction": "sampledyn.experiments.sweep._prediction:PREDICTION",
+    "closed_loop": "sampledyn.experiments._closed_loop:CLOSED_LOOP",
+    "multistep": "sampledyn.experiments._multistep:MULTISTEP",
+}
 
 
 def register_cell_kind(kind: CellKind) -> None:
@@ -271,22 +303,31 @@ def register_cell_kind(kind: CellKind) -> None:
     _KINDS[kind.name] = kind
 
 
+def _names() -> list[str]:
+    return list(dict.fromkeys([*_BUILT_IN, *_KINDS]))
+
+
 def available_cell_kinds() -> dict[str, str]:
-    """Registered cell kinds: name -> description."""
-    return {name: kind.description for name, kind in _KINDS.items()}
+    """Registered cell kinds: name -> description (the built-in ones included)."""
+    return {name: get_cell_kind(name).description for name in _names()}
 
 
 def get_cell_kind(name: str) -> CellKind:
-    """The registered cell kind ``name``.
+    """The registered cell kind ``name`` (a built-in one is imported on first use).
 
     Raises
     ------
     ValueError
         naming the registered kinds, for an unknown name.
     """
+    if isinstance(name, str) and name not in _KINDS and name in _BUILT_IN:
+        import importlib
+
+        module, _, attribute = _BUILT_IN[name].partition(":")
+        register_cell_kind(getattr(importlib.import_module(module), attribute))
     kind = _KINDS.get(name) if isinstance(name, str) else None
     if kind is None:
-        raise ValueError(f"unknown cell kind {name!r}; registered: {', '.join(sorted(_KINDS))}.")
+        raise ValueError(f"unknown cell kind {name!r}; registered: {', '.join(sorted(_names()))}.")
     return kind
 
 

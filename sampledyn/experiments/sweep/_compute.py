@@ -321,9 +321,11 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
                 {
                     "key": key,
                     "status": "error" if error else "ok",
-                    "err_eta": norms.get("eta", float("nan")),
-                    "err_v": norms.get("v", float("nan")),
-                    "err_all": norms.get("all", float("nan")),
+                    "values": {
+                        "err_eta": norms.get("eta", float("nan")),
+                        "err_v": norms.get("v", float("nan")),
+                        "err_all": norms.get("all", float("nan")),
+                    },
                     "seconds": seconds,
                     "error": error[:_MAX_MESSAGE],
                     "warnings": msgs,
@@ -343,9 +345,7 @@ def compute_chunk(setup: Setup, sim: SimResult, chunk: Chunk) -> ChunkResult:
                     {
                         "key": key,
                         "status": "error",
-                        "err_eta": float("nan"),
-                        "err_v": float("nan"),
-                        "err_all": float("nan"),
+                        "values": {},
                         "seconds": 0.0,
                         "error": sim.meta.get("error", "exact samples failed"),
                         "warnings": sim.meta.get("warnings", ""),

@@ -55,10 +55,13 @@ import math
 import os
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ...methods import families
+from ...models import FEEDBACK_LAWS, MODELS, is_model_file, model_names
+from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
 from ._summaries import SUMMARIES
@@ -103,6 +106,8 @@ _KEYS = (
 )
 _PER_VEHICLE_KEYS = tuple(k for k in _KEYS if k not in ("vehicle", "per_vehicle"))
 _ALWAYS = ("vehicle", "T", "after", "h", "max_cells", "per_vehicle")  # every kind's
+#: The family whose members ``orders = [s, ...]`` names (AB<s>).
+_ORDERS_FAMILY = "AB<s>"
 
 
 @dataclass(frozen=True)
@@ -150,26 +155,33 @@ class SweepConfigError(ValueError):
 class SweepConfig:
     """A checked sweep grid (see the module docstring for the file format).
 
+    The grid checks itself when it is made, whoever makes it: :func:`load_config`
+    (a sweep file), a built-in study, or Python code (``SweepConfig(...)``,
+    ``dataclasses.replace(config, h=(0.2,))``). Each value is checked once, here,
+    and the messages name the sweep-file key.
+
     Attributes
     ----------
     vehicle : str
-        Built-in vehicle name, absolute path of a vehicle file, or "auv_like"; with
-        ``model`` given, a label of that model.
+        Built-in model name (:func:`sampledyn.models.model_names`) or absolute path
+        of a vehicle file; with ``model`` given, a label of that model.
     inputs : tuple of Mapping[str, Any]
-        ``{"name": <registered input>, **parameters}`` per input (crossed with h).
+        ``{"name": <input of sampledyn.signals.INPUTS>, **parameters}`` per input
+        (crossed with h); required unless the kind needs none or ``signals`` are given.
     T, after : float
         Duration and start of the error window (s).
     h : tuple of float
-        Sampling periods (s).
+        Sampling periods (s), each dividing T into whole steps.
     methods : tuple of str
-        Registry names (:func:`sampledyn.get_method`).
+        Registry names (:func:`sampledyn.get_method`), or what the kind accepts.
     noise : sequence of (eta %, v %)
         Noise pairs (a tuple, or a :class:`NoiseGrid` for crossed lists).
     seeds : sequence of int
         Noise seeds (a tuple, or a ``range`` for a count); the noise-free pair (0, 0)
         runs with the first seed only, since its result does not depend on the seed.
     norms : tuple of str
-        Norms (canonical strings, :func:`parse_norm`), one cell each.
+        Norms (canonical strings, :func:`parse_norm`), one cell each; default
+        ("rms",) for a kind that measures norms, () for another.
     base_seed : int
         Seed k of a cell draws from ``SeedSequence([base_seed, k])``.
     distribution : str
@@ -181,8 +193,11 @@ class SweepConfig:
     max_cells : int or None
         Largest grid to run (None: :data:`DEFAULT_MAX_CELLS`).
     feedback : Mapping[str, Any] or None
-        ``{"law": <registered law>, **parameters}``: the model is the plant closed by
-        this law (a closed-loop study); None: open loop.
+        ``{"law": <law of sampledyn.models.FEEDBACK_LAWS>, **parameters}``: the model
+        is the plant closed by this law (a closed-loop study); None: open loop.
+    feedback_tuning : Mapping[str, Mapping[str, float]]
+        Each law's parameters for this vehicle (used by ``feedback`` and by
+        :meth:`with_feedback` for the parameters they do not give).
     rtol : float
         Relative (and absolute) tolerance of the exact samples.
     summaries : tuple of str
@@ -192,7 +207,7 @@ class SweepConfig:
         "prediction" (the default: one-step predictions measured by ``norms``),
         "closed_loop" or "multistep" (the controller studies).
     options : Mapping[str, Any]
-        The kind's own settings (checked by it; empty for a prediction study).
+        The kind's own settings (checked and completed by it).
     model : object or None
         A model object instead of ``vehicle`` (from Python, not from a file).
     signals : tuple or None
@@ -201,24 +216,30 @@ class SweepConfig:
         Exact samples to use instead of simulating (from Python): every h must be a
         multiple of its period; with one input only.
     source : str
-        Where the config came from (file path or "<dict>").
+        Where the config came from (file path or "<dict>"), for messages.
+
+    Raises
+    ------
+    SweepConfigError
+        (a ``ValueError``) naming the key of the first bad value, the value and the fix.
     """
 
     vehicle: str
-    inputs: tuple[Mapping[str, Any], ...]
-    T: float
-    after: float
-    h: tuple[float, ...]
-    methods: tuple[str, ...]
-    noise: Sequence[tuple[float, float]]
-    seeds: Sequence[int]
-    norms: tuple[str, ...]
+    inputs: tuple[Mapping[str, Any], ...] = ()
+    T: float = 0.0
+    after: float = 0.0
+    h: tuple[float, ...] = ()
+    methods: tuple[str, ...] = ()
+    noise: Sequence[tuple[float, float]] = ((0.0, 0.0),)
+    seeds: Sequence[int] = range(1)
+    norms: tuple[str, ...] = ()
     base_seed: int = 0
     distribution: str = "uniform"
     buoyancy_pct: float | None = None
     x0: tuple[float, ...] | None = None
     max_cells: int | None = None
     feedback: Mapping[str, Any] | None = None
+    feedback_tuning: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     rtol: float = 1e-12
     summaries: tuple[str, ...] = ()
     kind: str = "prediction"
@@ -227,6 +248,24 @@ class SweepConfig:
     signals: tuple[Any, ...] | None = field(default=None, compare=False)
     reference: Any = field(default=None, compare=False)
     source: str = field(default="<dict>", compare=False)
+
+    def __post_init__(self) -> None:
+        values = _checked(self)
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def cell_kind(self) -> CellKind:
+        """The registered :class:`CellKind` of :attr:`kind`."""
+        return get_cell_kind(self.kind)
+
+    def with_feedback(self, law: str | None, **parameters: float) -> SweepConfig:
+        """The same grid closed by feedback law ``law`` (None: open loop), with its
+        parameters from :attr:`feedback_tuning` for this vehicle where not given."""
+        if law is None:
+            return replace(self, feedback=None)
+        tuned = dict(self.feedback_tuning.get(law, {}))
+        return replace(self, feedback={"law": law, **tuned, **parameters})
 
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON-able description (recorded with each run)."""
@@ -267,8 +306,17 @@ class SweepConfig:
         return _parse(data, Path(base_dir) if base_dir is not None else None, "<dict>")
 
 
-def load_config(path: str | os.PathLike[str]) -> SweepConfig:
+def load_config(path: str | os.PathLike[str], *, vehicle: str | None = None) -> SweepConfig:
     """Read and check a sweep TOML file.
+
+    Parameters
+    ----------
+    path : path
+        The sweep file.
+    vehicle : str, optional
+        Run the file's grid on this model instead of its ``vehicle`` (a built-in
+        name, or a vehicle file relative to the working directory); the file's
+        ``per_vehicle`` entry for it applies.
 
     Raises
     ------
@@ -284,6 +332,8 @@ def load_config(path: str | os.PathLike[str]) -> SweepConfig:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise SweepConfigError("<file>", f"{path}: not valid TOML: {exc}") from exc
+    if vehicle is not None:
+        data["vehicle"] = str(Path(vehicle).resolve()) if is_model_file(vehicle) else vehicle
     return _parse(data, path.resolve().parent, str(path))
 
 
@@ -308,7 +358,7 @@ def _number(key: str, value: Any, src: str, *, positive: bool = False) -> float:
 
 
 def _number_list(key: str, value: Any, src: str, *, positive: bool = False) -> tuple[float, ...]:
-    values = value if isinstance(value, list) else [value]
+    values = list(value) if isinstance(value, list | tuple) else [value]
     if not values:
         raise SweepConfigError(key, f"`{key}`{_where(src)} must not be empty.")
     out = tuple(_number(key, v, src, positive=positive) for v in values)
@@ -321,8 +371,9 @@ def check_time_grid(
     T: Any, after: Any, h: Any, src: str = "<dict>"
 ) -> tuple[float, float, tuple[float, ...]]:
     """``(T, after, hs)`` of a study, checked: ``T`` finite and > 0 (s), ``after`` in
-    [0, T) (s), every period of ``h`` (a number or a list, s) > 0 and dividing ``T``
-    into whole steps. The one rule for sweep files and the built-in studies.
+    [0, T) (s), every period of ``h`` (a number or a sequence, s) > 0 and dividing
+    ``T`` into whole steps. The one rule for every grid (:class:`SweepConfig` runs
+    it when made).
 
     Raises
     ------
@@ -349,50 +400,99 @@ def check_time_grid(
     return T, after, hs
 
 
-def _percentages(key: str, value: Any, src: str) -> tuple[float, ...]:
-    out = _number_list(key, value, src)
-    if min(out) < 0:
-        raise SweepConfigError(key, f"`{key}`{_where(src)} must be percentages >= 0, got {value}.")
-    return out
+# -- the checks of a typed grid (SweepConfig.__post_init__) ---------------------------
 
 
-def _vehicle(data: Mapping[str, Any], base: Path | None, src: str) -> str:
-    vehicle = data.get("vehicle", _DEFAULT_VEHICLE)
+def _checked(c: SweepConfig) -> dict[str, Any]:
+    """Every field of ``c``, checked and in canonical form (what __post_init__ sets)."""
+    src = c.source
+    kind = _kind(c.kind, src)
+    T, after, hs = check_time_grid(c.T, c.after, c.h, src)
+    return {
+        "vehicle": _vehicle_name(c.vehicle, c.model, src),
+        "T": T,
+        "after": after,
+        "h": hs,
+        "inputs": _input_specs(c.inputs, c.signals, kind, src),
+        "methods": _method_names(c.methods, kind, src),
+        "noise": _noise_pairs(c.noise, src),
+        "seeds": _seed_list(c.seeds, src),
+        "norms": _norm_texts(c.norms, kind, src),
+        "base_seed": _count("base_seed", c.base_seed, src, least=0),
+        "distribution": _distribution(c.distribution, src),
+        "buoyancy_pct": _optional(_number, "buoyancy_pct", c.buoyancy_pct, src),
+        "x0": _optional(_numbers, "x0", c.x0, src),
+        "max_cells": _optional(_count, "max_cells", c.max_cells, src, least=1),
+        "feedback_tuning": _tuning(c.feedback_tuning, src),
+        "feedback": _feedback_spec(c.feedback, src),
+        "rtol": _number("rtol", c.rtol, src, positive=True),
+        "summaries": _summary_names(c.summaries, src),
+        "options": _kind_options(kind, c.options, src),
+    }  # fmt: skip
+
+
+def _optional(check: Any, key: str, value: Any, src: str, **kw: Any) -> Any:
+    return None if value is None else check(key, value, src, **kw)
+
+
+def _numbers(key: str, value: Any, src: str) -> tuple[float, ...]:
+    return tuple(_number(key, v, src) for v in _listed(key, value, src))
+
+
+def _kind(name: Any, src: str) -> CellKind:
+    try:
+        return get_cell_kind(name)
+    except ValueError as exc:
+        raise SweepConfigError("kind", f"`kind`{_where(src)}: {exc}") from exc
+
+
+def _vehicle_name(vehicle: Any, model: Any, src: str) -> str:
     if not isinstance(vehicle, str) or not vehicle.strip():
         raise SweepConfigError(
             "vehicle", f"`vehicle`{_where(src)} must be a string, got {vehicle!r}."
         )
-    if vehicle.endswith(".toml") or "/" in vehicle or os.sep in vehicle:
-        p = Path(vehicle)
-        if not p.is_absolute() and base is not None:
-            p = base / p
-        if not p.is_file():
-            raise SweepConfigError("vehicle", f"`vehicle`{_where(src)}: no file {str(p)!r}.")
-        return str(p.resolve())
-    return vehicle.strip()
+    vehicle = vehicle.strip()
+    if model is not None:
+        return vehicle  # a label of the model object
+    if is_model_file(vehicle):
+        if not Path(vehicle).is_file():
+            raise SweepConfigError("vehicle", f"`vehicle`{_where(src)}: no file {vehicle!r}.")
+        return str(Path(vehicle).resolve())
+    if MODELS.canonical(vehicle) is None and vehicle not in model_names():
+        raise SweepConfigError(
+            "vehicle",
+            f"`vehicle`{_where(src)}: unknown model {vehicle!r}; built-in: "
+            f"{', '.join(model_names())}, or the path of a .toml vehicle file.",
+        )
+    return vehicle
 
 
-def _inputs(data: Mapping[str, Any], src: str) -> tuple[dict[str, Any], ...]:
-    from ._inputs import check_input
+def _listed(key: str, value: Any, src: str) -> tuple[Any, ...]:
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise SweepConfigError(key, f"`{key}`{_where(src)} must be a list, got {value!r}.")
+    return tuple(value)
 
-    raw = data.get("input")
-    if raw is None:
+
+def _input_specs(
+    inputs: Any, signals: Any, kind: CellKind, src: str
+) -> tuple[Mapping[str, Any], ...]:
+    specs = tuple(dict(i) for i in inputs)
+    if not kind.needs_input:
+        if specs:
+            raise SweepConfigError(
+                "input",
+                f"`input`{_where(src)} does not apply to a {kind.name} study "
+                f"({kind.description}); remove it.",
+            )
+        return ()
+    if signals is not None:
+        return specs  # labels of the signal objects
+    if not specs:
         raise SweepConfigError("input", f'`input`{_where(src)} is required, e.g. input = "fig6".')
     out = []
-    for item in raw if isinstance(raw, list) and raw else [raw]:
-        spec = (
-            {"name": item}
-            if isinstance(item, str)
-            else dict(item)
-            if isinstance(item, dict)
-            else None
-        )
-        if spec is None:
-            raise SweepConfigError(
-                "input", f"`input`{_where(src)} must be a name, a table or a list, got {raw!r}."
-            )
+    for spec in specs:
         try:
-            out.append(check_input(spec))
+            out.append(INPUTS.check(spec))
         except ValueError as exc:
             raise SweepConfigError("input", f"`input`{_where(src)}: {exc}") from exc
     if len({repr(sorted(i.items())) for i in out}) != len(out):
@@ -400,12 +500,102 @@ def _inputs(data: Mapping[str, Any], src: str) -> tuple[dict[str, Any], ...]:
     return tuple(out)
 
 
-def _tuning(data: Mapping[str, Any], src: str) -> dict[str, dict[str, Any]]:
-    """``feedback_tuning``: law -> its parameters (names checked, finite numbers)."""
-    from ._inputs import check_feedback
+def _method_names(methods: Any, kind: CellKind, src: str) -> tuple[str, ...]:
+    if isinstance(methods, str) or not all(isinstance(m, str) for m in methods):
+        raise SweepConfigError("methods", f"`methods`{_where(src)} must be a list of names.")
+    names = [m.strip() for m in methods]
+    if not names:
+        raise SweepConfigError(
+            "methods", f'give `methods` or `orders`{_where(src)}, e.g. methods = ["AB1", "AB4"].'
+        )
+    for name in names:
+        try:
+            kind.check_method(name)
+        except (ValueError, TypeError) as exc:
+            raise SweepConfigError("methods", f"`methods`{_where(src)}: {exc}") from exc
+    return tuple(dict.fromkeys(names))
 
-    raw = data.get("feedback_tuning", {})
-    if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
+
+def _percent(key: str, value: Any, src: str) -> float:
+    out = _number(key, value, src)
+    if out < 0:
+        raise SweepConfigError(key, f"`{key}`{_where(src)} must be percentages >= 0, got {value}.")
+    return out
+
+
+def _noise_pairs(noise: Any, src: str) -> Sequence[tuple[float, float]]:
+    if isinstance(noise, NoiseGrid):
+        for key, values in (("eta_pct", noise.eta), ("v_pct", noise.v)):
+            _number_list(key, list(values), src)
+            for v in values:
+                _percent(key, v, src)
+        return NoiseGrid(tuple(map(float, noise.eta)), tuple(map(float, noise.v)))
+    ok = isinstance(noise, Sequence) and len(noise) > 0
+    ok = ok and all(isinstance(p, Sequence) and len(p) == 2 for p in noise)
+    if not ok:
+        raise SweepConfigError(
+            "noise", f"`noise`{_where(src)} must be a list of [eta %, v %] pairs, got {noise!r}."
+        )
+    pairs = tuple((_percent("noise", e, src), _percent("noise", v, src)) for e, v in noise)
+    if len(set(pairs)) != len(pairs):
+        raise SweepConfigError("noise", f"`noise`{_where(src)} lists a pair twice.")
+    return pairs
+
+
+def _seed_list(seeds: Any, src: str) -> Sequence[int]:
+    if isinstance(seeds, range) and seeds.step == 1 and seeds.start >= 0 and len(seeds) > 0:
+        return seeds
+    ok = isinstance(seeds, Sequence) and len(seeds) > 0
+    ok = ok and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
+    if not ok or len(set(seeds)) != len(seeds):
+        raise SweepConfigError(
+            "seeds",
+            f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got "
+            f"{list(seeds) if isinstance(seeds, range) else seeds!r}.",
+        )
+    return tuple(seeds)
+
+
+def _norm_texts(norms: Any, kind: CellKind, src: str) -> tuple[str, ...]:
+    values = [norms] if isinstance(norms, str) else list(norms)
+    if kind.uses is not None and "norm" not in kind.uses:
+        if values:
+            raise SweepConfigError(
+                "norm",
+                f"`norm`{_where(src)} does not apply to a {kind.name} study "
+                f"({kind.description}); remove it.",
+            )
+        return ()
+    out = []
+    for n in values or ["rms"]:
+        try:
+            out.append(parse_norm(n).text)
+        except ValueError as exc:
+            raise SweepConfigError("norm", f"`norm`{_where(src)}: {exc}") from exc
+    return tuple(dict.fromkeys(out))
+
+
+def _count(key: str, value: Any, src: str, *, least: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < least:
+        raise SweepConfigError(
+            key, f"`{key}`{_where(src)} must be an int >= {least}, got {value!r}."
+        )
+    return int(value)
+
+
+def _distribution(value: Any, src: str) -> str:
+    if value not in _DISTRIBUTIONS:
+        raise SweepConfigError(
+            "distribution",
+            f"`distribution`{_where(src)} must be one of {', '.join(_DISTRIBUTIONS)}, "
+            f"got {value!r}.",
+        )
+    return str(value)
+
+
+def _tuning(raw: Any, src: str) -> dict[str, dict[str, float]]:
+    """``feedback_tuning``: law -> its parameters (names checked, finite numbers)."""
+    if not isinstance(raw, Mapping) or not all(isinstance(v, Mapping) for v in raw.values()):
         raise SweepConfigError(
             "feedback_tuning",
             f"`feedback_tuning`{_where(src)} must be a table of tables, one per feedback law, "
@@ -413,7 +603,7 @@ def _tuning(data: Mapping[str, Any], src: str) -> dict[str, dict[str, Any]]:
         )
     for law, params in raw.items():
         try:
-            check_feedback({"law": law, **params})
+            FEEDBACK_LAWS.check({"law": law, **params})
         except ValueError as exc:
             raise SweepConfigError(
                 "feedback_tuning", f"`feedback_tuning.{law}`{_where(src)}: {exc}"
@@ -423,49 +613,45 @@ def _tuning(data: Mapping[str, Any], src: str) -> dict[str, dict[str, Any]]:
     return {law: dict(params) for law, params in raw.items()}
 
 
-def _feedback(data: Mapping[str, Any], src: str) -> dict[str, Any] | None:
-    from ._inputs import check_feedback
-
-    tuning = _tuning(data, src)
-    raw = data.get("feedback")
-    if raw is None or raw == "none":
+def _feedback_spec(raw: Any, src: str) -> dict[str, Any] | None:
+    if raw is None:
         return None
-    if not isinstance(raw, dict):
+    if not isinstance(raw, Mapping):
         raise SweepConfigError(
             "feedback",
             f"`feedback`{_where(src)} must be a table such as "
             f'{{ law = "roll_pitch_hold", kp = 40.0 }} or "none", got {raw!r}.',
         )
     try:
-        # The law's tuning for this vehicle, then the parameters given with it.
-        return check_feedback({**tuning.get(str(raw.get("law")), {}), **raw})
+        return FEEDBACK_LAWS.check(raw)
     except ValueError as exc:
         raise SweepConfigError("feedback", f"`feedback`{_where(src)}: {exc}") from exc
 
 
-def _norms(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
-    raw = data.get("norm", "rms")
-    values = raw if isinstance(raw, list) else [raw]
-    if not values:
-        raise SweepConfigError("norm", f"`norm`{_where(src)} must not be empty.")
-    out = []
-    for n in values:
-        try:
-            out.append(parse_norm(n).text)
-        except ValueError as exc:
-            raise SweepConfigError("norm", f"`norm`{_where(src)}: {exc}") from exc
-    return tuple(dict.fromkeys(out))
-
-
-def _summaries(data: Mapping[str, Any], src: str) -> tuple[str, ...]:
-    raw = data.get("summaries", [])
-    raw = [raw] if isinstance(raw, str) else raw
-    if not isinstance(raw, list) or any(n not in SUMMARIES for n in raw):
+def _summary_names(raw: Any, src: str) -> tuple[str, ...]:
+    names = [raw] if isinstance(raw, str) else raw
+    if not isinstance(names, Sequence) or any(n not in SUMMARIES for n in names):
         raise SweepConfigError(
             "summaries",
             f"`summaries`{_where(src)} must be a list of {', '.join(SUMMARIES)}, got {raw!r}.",
         )
-    return tuple(dict.fromkeys(raw))
+    return tuple(dict.fromkeys(names))
+
+
+def _kind_options(kind: CellKind, options: Mapping[str, Any], src: str) -> dict[str, Any]:
+    bad = sorted(set(options) - set(kind.option_keys))
+    if bad:
+        raise SweepConfigError(
+            bad[0], f"`{bad[0]}`{_where(src)} is no setting of a {kind.name} study."
+        )
+    try:
+        return kind.check_options(options)
+    except (ValueError, TypeError) as exc:
+        key = exc.key if isinstance(exc, SweepConfigError) else "kind"
+        raise SweepConfigError(key, f"{str(exc).rstrip('.')}{_where(src)}.") from exc
+
+
+# -- a sweep file: one producer of a SweepConfig ---------------------------------------
 
 
 def _apply_per_vehicle(
@@ -497,16 +683,14 @@ def _apply_per_vehicle(
 
 
 def _warn_unknown_vehicle_names(table: Mapping[str, Any], vehicle: str, src: str) -> None:
-    """Warn about a ``per_vehicle`` entry that names no built-in vehicle and not this
+    """Warn about a ``per_vehicle`` entry that names no built-in model and not this
     file's vehicle: most likely a misspelling, which would be ignored without a word
     (an entry for a vehicle file used with this study elsewhere is legitimate, so it is
     a warning, not an error)."""
     import difflib
     import warnings
 
-    from ...models import builtin_vehicles
-
-    known = {*builtin_vehicles(), "auv_like", vehicle, Path(vehicle).stem}
+    known = {*model_names(), vehicle, Path(vehicle).stem}
     for name in table:
         if name not in known:
             close = difflib.get_close_matches(name, sorted(known), n=1)
@@ -516,16 +700,41 @@ def _warn_unknown_vehicle_names(table: Mapping[str, Any], vehicle: str, src: str
                 f"sweep's vehicle {vehicle!r}: it applies only when `vehicle` is {name!r} "
                 f"or a file {name}.toml{hint}",
                 UserWarning,
-                stacklevel=4,
+                stacklevel=5,
             )
 
 
-def _methods(data: Mapping[str, Any], src: str, kind: CellKind) -> tuple[str, ...]:
-    names: list[str] = []
+def _file_vehicle(data: Mapping[str, Any], base: Path | None, src: str) -> Any:
+    """The file's ``vehicle``, a relative vehicle path resolved against ``base``."""
+    vehicle = data.get("vehicle", _DEFAULT_VEHICLE)
+    if isinstance(vehicle, str) and is_model_file(vehicle) and base is not None:
+        p = Path(vehicle)
+        return str(p if p.is_absolute() else base / p)
+    return vehicle
+
+
+def _file_inputs(data: Mapping[str, Any], src: str) -> tuple[dict[str, Any], ...]:
+    raw = data.get("input")
+    if raw is None:
+        return ()
+    out = []
+    for item in raw if isinstance(raw, list) and raw else [raw]:
+        if isinstance(item, str):
+            out.append({"name": item})
+        elif isinstance(item, dict):
+            out.append(dict(item))
+        else:
+            raise SweepConfigError(
+                "input", f"`input`{_where(src)} must be a name, a table or a list, got {raw!r}."
+            )
+    return tuple(out)
+
+
+def _file_methods(data: Mapping[str, Any], src: str) -> tuple[Any, ...]:
+    """``methods``, after the members of the AB family of the ``orders`` listed."""
     raw = data.get("methods", [])
-    if isinstance(raw, str):
-        raw = [raw]
-    if not isinstance(raw, list) or not all(isinstance(m, str) for m in raw):
+    raw = [raw] if isinstance(raw, str) else raw
+    if not isinstance(raw, list):
         raise SweepConfigError("methods", f"`methods`{_where(src)} must be a list of names.")
     orders = data.get("orders", [])
     if not isinstance(orders, list) or not all(
@@ -534,73 +743,41 @@ def _methods(data: Mapping[str, Any], src: str, kind: CellKind) -> tuple[str, ..
         raise SweepConfigError(
             "orders", f"`orders`{_where(src)} must be a list of integers >= 1, got {orders!r}."
         )
-    names = [*(f"AB{s}" for s in orders), *(m.strip() for m in raw)]
-    if not names:
-        raise SweepConfigError(
-            "methods", f'give `methods` or `orders`{_where(src)}, e.g. methods = ["AB1", "AB4"].'
-        )
-    for name in names:
-        try:
-            kind.check_method(name)
-        except (ValueError, TypeError) as exc:
-            raise SweepConfigError("methods", f"`methods`{_where(src)}: {exc}") from exc
-    return tuple(dict.fromkeys(names))
+    family = next(f for f in families() if f.key == _ORDERS_FAMILY) if orders else None
+    return (*(family.name(s) for s in orders if family is not None), *raw)
 
 
-def _noise(data: Mapping[str, Any], src: str) -> Sequence[tuple[float, float]]:
+def _file_noise(data: Mapping[str, Any], src: str) -> Sequence[Any]:
     if "noise" in data:
         if "eta_pct" in data or "v_pct" in data:
             raise SweepConfigError(
                 "noise", f"give either `noise` pairs or `eta_pct`/`v_pct`{_where(src)}, not both."
             )
-        raw = data["noise"]
-        ok = isinstance(raw, list) and raw and all(isinstance(p, list) and len(p) == 2 for p in raw)
-        if not ok:
-            raise SweepConfigError(
-                "noise", f"`noise`{_where(src)} must be a list of [eta %, v %] pairs, got {raw!r}."
-            )
-        pairs = [
-            (_percentages("noise", [p[0]], src)[0], _percentages("noise", [p[1]], src)[0])
-            for p in raw
-        ]
-        if len(set(pairs)) != len(pairs):
-            raise SweepConfigError("noise", f"`noise`{_where(src)} lists a pair twice.")
-        return tuple(pairs)
+        return data["noise"]
     # Distinct lists (checked) give distinct pairs; the product is never listed.
-    eta = _percentages("eta_pct", data.get("eta_pct", [0.0]), src)
-    v = _percentages("v_pct", data.get("v_pct", [0.0]), src)
-    return NoiseGrid(eta, v)
+    eta, v = (data.get(k, [0.0]) for k in ("eta_pct", "v_pct"))
+    return NoiseGrid(tuple(eta if isinstance(eta, list) else [eta]),
+                     tuple(v if isinstance(v, list) else [v]))  # fmt: skip
 
 
-def _seeds(data: Mapping[str, Any], src: str) -> Sequence[int]:
-    raw = data.get("seeds", 1)
-    if isinstance(raw, int) and not isinstance(raw, bool):
-        if raw < 1:
-            raise SweepConfigError("seeds", f"`seeds`{_where(src)} must be >= 1, got {raw}.")
-        return range(raw)
-    if (
-        isinstance(raw, list)
-        and raw
-        and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in raw)
-        and len(set(raw)) == len(raw)
-    ):
-        return tuple(raw)
-    raise SweepConfigError(
-        "seeds",
-        f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got {raw!r}.",
-    )
+def _file_seeds(raw: Any) -> Any:
+    return range(raw) if isinstance(raw, int) and not isinstance(raw, bool) and raw >= 1 else raw
 
 
-def _kind(data: Mapping[str, Any], src: str) -> CellKind:
-    name = data.get("kind", "prediction")
-    try:
-        return get_cell_kind(name)
-    except ValueError as exc:
-        raise SweepConfigError("kind", f"`kind`{_where(src)}: {exc}") from exc
+def _file_feedback(data: Mapping[str, Any]) -> Any:
+    """``feedback`` with the law's ``feedback_tuning`` under its own parameters."""
+    raw = data.get("feedback")
+    if raw is None or raw == "none":
+        return None
+    if not isinstance(raw, dict):
+        return raw  # refused by the check
+    tuning = data.get("feedback_tuning", {})
+    tuned = tuning.get(str(raw.get("law")), {}) if isinstance(tuning, dict) else {}
+    return {**tuned, **raw} if isinstance(tuned, dict) else raw
 
 
 def _kind_keys(data: Mapping[str, Any], src: str, kind: CellKind) -> dict[str, Any]:
-    """Refuse the common keys the kind does not read; its own settings, checked."""
+    """Refuse the common keys the kind does not read; its own keys."""
     uses = set(_KEYS) if kind.uses is None else {*kind.uses, *_ALWAYS}
     for key in (k for k in _KEYS if k in data and k not in uses):
         raise SweepConfigError(
@@ -608,16 +785,11 @@ def _kind_keys(data: Mapping[str, Any], src: str, kind: CellKind) -> dict[str, A
             f"`{key}`{_where(src)} does not apply to a {kind.name} study ({kind.description}); "
             "remove it.",
         )
-    own = {k: data[k] for k in kind.option_keys if k in data}
-    try:
-        return kind.check_options(own)
-    except (ValueError, TypeError) as exc:
-        key = exc.key if isinstance(exc, SweepConfigError) else "kind"
-        raise SweepConfigError(key, f"{str(exc).rstrip('.')}{_where(src)}.") from exc
+    return {k: data[k] for k in kind.option_keys if k in data}
 
 
 def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
-    kind = _kind(data, src)
+    kind = _kind(data.get("kind", "prediction"), src)
     valid = (*_KEYS, "kind", *kind.option_keys)
     unknown = sorted(set(data) - set(valid))
     if unknown:
@@ -629,47 +801,31 @@ def _parse(data: Mapping[str, Any], base: Path | None, src: str) -> SweepConfig:
     for key in ("T", "after", "h"):
         if key not in data:
             raise SweepConfigError(key, f"`{key}`{_where(src)} is required.")
-    T, after, hs = check_time_grid(data["T"], data["after"], data["h"], src)
-    base_seed = data.get("base_seed", 0)
-    if not isinstance(base_seed, int) or isinstance(base_seed, bool) or base_seed < 0:
-        raise SweepConfigError("base_seed", f"`base_seed`{_where(src)} must be an int >= 0.")
-    distribution = data.get("distribution", "uniform")
-    if distribution not in _DISTRIBUTIONS:
-        raise SweepConfigError(
-            "distribution",
-            f"`distribution`{_where(src)} must be one of {', '.join(_DISTRIBUTIONS)}, "
-            f"got {distribution!r}.",
-        )
-    max_cells = data.get("max_cells")
-    if max_cells is not None and (
-        not isinstance(max_cells, int) or isinstance(max_cells, bool) or max_cells < 1
-    ):
-        raise SweepConfigError(
-            "max_cells", f"`max_cells`{_where(src)} must be an int >= 1, got {max_cells!r}."
-        )
-    buoy = data.get("buoyancy_pct")
     x0 = data.get("x0")
     if x0 is not None and not isinstance(x0, list):
         raise SweepConfigError("x0", f"`x0`{_where(src)} must be a list of numbers, got {x0!r}.")
-    rtol = _number("rtol", data.get("rtol", 1e-12), src, positive=True)
+    norms = data.get("norm", "rms" if kind.uses is None or "norm" in kind.uses else ())
+    if norms == []:
+        raise SweepConfigError("norm", f"`norm`{_where(src)} must not be empty.")
     return SweepConfig(
-        vehicle=_vehicle(data, base, src),
-        inputs=_inputs(data, src) if kind.needs_input else (),
-        T=T,
-        after=after,
-        h=hs,
-        methods=_methods(data, src, kind),
-        noise=_noise(data, src),
-        seeds=_seeds(data, src),
-        norms=_norms(data, src) if kind.uses is None or "norm" in kind.uses else (),
-        base_seed=base_seed,
-        distribution=distribution,
-        buoyancy_pct=None if buoy is None else _number("buoyancy_pct", buoy, src),
-        x0=None if x0 is None else tuple(_number("x0", v, src) for v in x0),
-        max_cells=max_cells,
-        feedback=_feedback(data, src),
-        rtol=rtol,
-        summaries=_summaries(data, src),
+        vehicle=_file_vehicle(data, base, src),
+        inputs=_file_inputs(data, src),
+        T=data["T"],
+        after=data["after"],
+        h=data["h"],
+        methods=_file_methods(data, src),
+        noise=_file_noise(data, src),
+        seeds=_file_seeds(data.get("seeds", 1)),
+        norms=norms,
+        base_seed=data.get("base_seed", 0),
+        distribution=data.get("distribution", "uniform"),
+        buoyancy_pct=data.get("buoyancy_pct"),
+        x0=None if x0 is None else tuple(x0),
+        max_cells=data.get("max_cells"),
+        feedback=_file_feedback(data),
+        feedback_tuning=data.get("feedback_tuning", {}),
+        rtol=data.get("rtol", 1e-12),
+        summaries=data.get("summaries", []),
         kind=kind.name,
         options=options,
         source=src,

@@ -36,10 +36,10 @@ from typing import Any
 import numpy as np
 
 from ...errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
+from ...methods import Predictor, available_methods, get_method
 from ...noise import NOISE_REFERENCE
 
 __all__ = [
-    "SMOOTH_HISTORY",
     "NormSpec",
     "available_masks",
     "away_from_jumps",
@@ -47,11 +47,18 @@ __all__ = [
     "component_groups",
     "measure",
     "parse_norm",
+    "smooth_history",
 ]
 
-#: Samples counted as "away from input jumps" have no jump in the last 7 samples,
-#: which covers the history of AB6 plus the interval being predicted.
-SMOOTH_HISTORY = 7
+
+def smooth_history() -> int:
+    """HISTORY of the masks ``away_from_jumps`` and ``smooth``: 1 + the longest history
+    among the registered predictors (their listed orders; 7 with AB6, ABu6, ABj6,
+    ABe6), so a kept sample's prediction uses no jump whichever rule made it, and
+    every rule's norms count the same samples."""
+    rules = (get_method(name) for name in available_methods())
+    return 1 + max(m.history for m in rules if isinstance(m, Predictor))
+
 
 _PARTS = ("disturbed", "noise")
 _COUNT_KINDS = {"exceeds": 2}  # kinds this module counts itself, with their arity
@@ -101,13 +108,14 @@ def away_from_kinks(x: np.ndarray, kink_states: tuple[int, ...], history: int) -
     return window == 0
 
 
-def _mask_jumps(clean: Any, model: Any, history: float = SMOOTH_HISTORY) -> np.ndarray:
-    return away_from_jumps(clean.u, int(history))
+def _mask_jumps(clean: Any, model: Any, history: float | None = None) -> np.ndarray:
+    return away_from_jumps(clean.u, smooth_history() if history is None else int(history))
 
 
-def _mask_smooth(clean: Any, model: Any, history: float = SMOOTH_HISTORY) -> np.ndarray:
+def _mask_smooth(clean: Any, model: Any, history: float | None = None) -> np.ndarray:
     kinks = tuple(getattr(model, "kink_states", ()) or ())
-    return away_from_jumps(clean.u, int(history)) & away_from_kinks(clean.x, kinks, int(history))
+    n = smooth_history() if history is None else int(history)
+    return away_from_jumps(clean.u, n) & away_from_kinks(clean.x, kinks, n)
 
 
 def _mask_pitch(clean: Any, model: Any, lo: float, hi: float, window: float = 5) -> np.ndarray:
@@ -128,20 +136,24 @@ def _mask_pitch(clean: Any, model: Any, lo: float, hi: float, window: float = 5)
 class _Mask:
     function: Callable[..., np.ndarray]
     arity: tuple[int, int]  # least and most arguments
-    description: str
+    text: str  # "{history}" stands for smooth_history()
+
+    @property
+    def description(self) -> str:
+        return self.text.format(history=smooth_history()) if "{history}" in self.text else self.text
 
 
 _MASKS: dict[str, _Mask] = {
     "away_from_jumps": _Mask(
         _mask_jumps,
         (0, 1),
-        f"samples whose history (the last HISTORY = {SMOOTH_HISTORY} samples) holds no input jump",
+        "samples whose history (the last HISTORY = {history} samples) holds no input jump",
     ),
     "smooth": _Mask(
         _mask_smooth,
         (0, 1),
         "samples away from input jumps and from zero crossings of the states inside |.| "
-        f"(last HISTORY = {SMOOTH_HISTORY} samples)",
+        "(last HISTORY = {history} samples)",
     ),
     "pitch_deg": _Mask(
         _mask_pitch,

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ...models import ClosedLoop
+from ...signals import input_for
 from ._cells import (
     Cell,
     Chunk,
@@ -42,7 +43,7 @@ from ._cells import (
     get_cell_kind,
 )
 from ._config import SweepConfig
-from ._inputs import build_model, make_input
+from ._inputs import build_model
 from ._norms import parse_norm
 
 __all__ = [
@@ -185,7 +186,7 @@ class Study:
                                     "base_seed": cfg.base_seed,
                                     "distribution": cfg.distribution,
                                     "method": method,
-                                    "norm": norm,
+                                    "norm": norm,  # the measure (its key, kept)
                                 }
                                 text = _canonical(cconf)
                                 key = hashlib.sha256(text.encode()).hexdigest()
@@ -219,7 +220,7 @@ class Study:
             h = self.trajectories[traj_key]["h"]
             sim_key = self.trajectories[traj_key]["sim_key"]
             glist = [
-                Group(e, v, s, tuple((c.key, c.method, c.norm) for c in cs))
+                Group(e, v, s, tuple((c.key, c.method, c.measure) for c in cs))
                 for (e, v, s), cs in groups.items()
             ]
             for i in range(0, len(glist), groups_per_chunk):
@@ -253,6 +254,57 @@ def _trajectory_fingerprint(traj: Any) -> str:
     return _hash_numbers(np.asarray(traj.x[:: max(1, traj.n_samples // 512)], dtype=float))
 
 
+def _model(config: SweepConfig) -> Any:
+    """The model of the grid: the object given, or built from its names."""
+    if config.model is not None:
+        if config.feedback is not None:
+            raise ValueError("give a `model` object or a `feedback` law, not both.")
+        return config.model
+    try:
+        return build_model(config.vehicle, config.buoyancy_pct, config.feedback)
+    except (ValueError, FileNotFoundError) as exc:
+        raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
+
+
+def _signals(config: SweepConfig, model: Any) -> tuple[Any, ...]:
+    """The inputs of the grid (the objects given, or built for the plant), checked
+    against the model and every h."""
+    plant = model.plant if isinstance(model, ClosedLoop) else model
+    if config.signals is not None:
+        if len(config.signals) != len(config.inputs):
+            raise ValueError(f"{len(config.signals)} `signals` for {len(config.inputs)} `inputs`.")
+        signals = tuple(config.signals)
+    else:
+        built = []
+        for spec in config.inputs:
+            try:
+                built.append(input_for(spec, plant))
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"`input` {dict(spec)!r}: {exc}") from exc
+        signals = tuple(built)
+    for signal, spec in zip(signals, config.inputs, strict=True):
+        if int(signal.nu) != int(model.nu):
+            raise ValueError(
+                f"the input has {signal.nu} channels, the model {model.nu} "
+                f"({', '.join(model.input_names)})."
+            )
+        for h in config.h:
+            try:
+                signal.check_sampling(h)
+            except ValueError as exc:
+                raise ValueError(f"`input` {dict(spec)!r} with `h` = {h:g} s: {exc}") from exc
+    return signals
+
+
+def _reference(config: SweepConfig, signals: tuple[Any, ...]) -> Any:
+    reference = config.reference
+    if reference is None:
+        return None
+    if len(signals) != 1:
+        raise ValueError("exact samples (`reference`) go with one input only.")
+    return reference.clean if reference.clean is not None else reference
+
+
 def plan_study(config: SweepConfig) -> Study:
     """Build the model and inputs, check them against the grid, and key the
     trajectories; the cells are listed lazily (:meth:`Study.iter_groups`).
@@ -265,49 +317,13 @@ def plan_study(config: SweepConfig) -> Study:
     from ..._version import __version__
 
     kind = get_cell_kind(config.kind)
-    if config.model is not None:
-        model = config.model
-        if config.feedback is not None:
-            raise ValueError("give a `model` object or a `feedback` law, not both.")
-    else:
-        try:
-            model = build_model(config.vehicle, config.buoyancy_pct, config.feedback)
-        except (ValueError, FileNotFoundError) as exc:
-            raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
-    plant = model.plant if isinstance(model, ClosedLoop) else model
-    if config.signals is not None:
-        if len(config.signals) != len(config.inputs):
-            raise ValueError(f"{len(config.signals)} `signals` for {len(config.inputs)} `inputs`.")
-        signals = tuple(config.signals)
-    else:
-        built = []
-        for spec in config.inputs:
-            try:
-                built.append(make_input(spec, plant))
-            except (ValueError, TypeError) as exc:
-                raise ValueError(f"`input` {dict(spec)!r}: {exc}") from exc
-        signals = tuple(built)
-    for signal in signals:
-        if int(signal.nu) != int(model.nu):
-            raise ValueError(
-                f"the input has {signal.nu} channels, the model {model.nu} "
-                f"({', '.join(model.input_names)})."
-            )
+    model = _model(config)
     if config.x0 is not None and len(config.x0) != model.nx:
         raise ValueError(
             f"`x0` needs {model.nx} numbers for {config.vehicle!r}, got {len(config.x0)}."
         )
-    reference = config.reference
-    if reference is not None:
-        if len(signals) != 1:
-            raise ValueError("exact samples (`reference`) go with one input only.")
-        reference = reference.clean if reference.clean is not None else reference
-    for signal, spec in zip(signals, config.inputs, strict=True):
-        for h in config.h:
-            try:
-                signal.check_sampling(h)
-            except ValueError as exc:
-                raise ValueError(f"`input` {dict(spec)!r} with `h` = {h:g} s: {exc}") from exc
+    signals = _signals(config, model)
+    reference = _reference(config, signals)
     mfp = model_fingerprint(model)
     ifps = tuple(input_fingerprint(signal, config.T) for signal in signals)
     common = {

@@ -12,7 +12,7 @@ import warnings
 from typing import Any
 
 from ...simulate import simulate
-from ._cells import CellKind, Chunk, Setup, SimPlan, register_cell_kind
+from ._cells import CellKind, Chunk, Setup, SimPlan
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
 
 __all__ = ["PREDICTION", "PredictionCells"]
@@ -24,6 +24,10 @@ class PredictionCells(CellKind):
     name = "prediction"
     description = "one-step predictions of each rule on noisy exact samples, by norm"
     measure_label = "norms"
+    measure_name = "norm"
+    columns: tuple[tuple[str, type], ...] = (
+        ("err_eta", float), ("err_v", float), ("err_all", float)
+    )  # fmt: skip
 
     def measures(self, config: Any) -> tuple[str, ...]:
         return tuple(config.norms)
@@ -46,4 +50,3 @@ class PredictionCells(CellKind):
 
 #: The registered prediction kind (the default of every sweep file).
 PREDICTION = PredictionCells()
-register_cell_kind(PREDICTION)

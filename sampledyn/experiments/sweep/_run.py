@@ -39,7 +39,7 @@ from ._backends import (
 from ._compute import ChunkResult
 from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
 from ._plan import Cell, Chunk, PlannedGroup, Study, plan_study
-from ._store import Claim, ResultStore, inspect_store
+from ._store import CELL_COLUMNS, Claim, ResultStore, inspect_store
 
 __all__ = [
     "LEASE_SECONDS",
@@ -135,13 +135,18 @@ class _Tally:
 
 
 def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> dict[str, Any]:
+    """A generic stored cell: key, kind, the coordinates, the kind's values."""
     cfg = study.config
     tconf = study.trajectories[cell.traj_key]
-    named = result.get("result")
+    kind = study.setup.kind
+    values = result.get("values") or {}
+    bad = sorted(set(values) - {n for n, _t in kind.columns})
+    if bad:
+        raise ValueError(f"cell kind {kind.name!r} returned {bad[0]!r}, not one of its columns.")
     return {
-        **result,
-        "kind": study.setup.kind.name,
-        "result": None if named is None else json.dumps(named),  # (in the kind's order)
+        **{k: v for k, v in result.items() if k != "values"},
+        **{n: values.get(n) for n, _t in kind.columns},
+        "kind": kind.name,
         "run_id": run_id,
         "computed_at": time.time(),
         "version": study.version,
@@ -160,7 +165,7 @@ def _cell_row(cell: Cell, study: Study, result: dict[str, Any], run_id: str) -> 
         "seed": cell.seed,
         "base_seed": cfg.base_seed,
         "distribution": cfg.distribution,
-        "norm": cell.norm,
+        "measure": cell.measure,
         "traj_key": cell.traj_key,
         "config": cell.config,
     }
@@ -332,6 +337,9 @@ class MemoryStore:
     def start_run(self, *, backend: str, planned: int, skipped: int, config: Any) -> str:
         return "memory"
 
+    def ensure_kind(self, kind: Any) -> None:
+        return None
+
     def claim(self, run_id: str, keys: Any, *, retry_failed: bool, lease: float) -> Claim:
         todo = [k for k in keys if k not in self.cells]
         return Claim(tuple(todo), len(keys) - len(todo), 0)
@@ -425,35 +433,18 @@ def run_sweep(
         passed on after the run is marked "interrupted" (finished cells kept, local
         workers terminated, claims released).
     """
-    if workers is not None and scheduler is not None:
-        raise ValueError("give `workers` or `scheduler`, not both.")
-    if workers is not None and (isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"`workers` must be >= 1, got {workers}.")
-    if groups_per_chunk is not None and groups_per_chunk < 1:
-        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
-    if not lease > 0:
-        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
+    backend, n_workers = _backend(workers, scheduler, groups_per_chunk, lease)
     t_start = time.perf_counter()
     if isinstance(config, Study):
         study = config
     else:
         study = plan_study(config if isinstance(config, SweepConfig) else load_config(config))
     check_grid_size(study, max_cells)
-    if scheduler is not None:
-        backend, n_workers = f"dask:{scheduler}", 1
-    elif workers is not None:
-        backend, n_workers = f"processes:{workers}", workers
-    else:
-        backend, n_workers = "in-process", 1
     if store is None:
         store = MemoryStore()
     opened = isinstance(store, ResultStore | MemoryStore)
     if dry_run:
-        if isinstance(store, MemoryStore):
-            found = 0
-        else:
-            path = store.path if isinstance(store, ResultStore) else Path(store)
-            found = _count_stored(study, path, retry_failed)
+        found = _found(study, store, retry_failed)
         return SweepSummary(
             "", study.n_cells, found, 0, 0, backend, time.perf_counter() - t_start,
             0.0, 0.0, 0.0, status="dry-run",
@@ -499,6 +490,33 @@ def run_sweep(
     )  # fmt: skip
 
 
+def _backend(
+    workers: int | None, scheduler: str | None, groups_per_chunk: int | None, lease: float
+) -> tuple[str, int]:
+    """The backend's name and worker count, the run's arguments checked."""
+    if workers is not None and scheduler is not None:
+        raise ValueError("give `workers` or `scheduler`, not both.")
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
+        raise ValueError(f"`workers` must be >= 1, got {workers}.")
+    if groups_per_chunk is not None and groups_per_chunk < 1:
+        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
+    if not lease > 0:
+        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
+    if scheduler is not None:
+        return f"dask:{scheduler}", 1
+    if workers is not None:
+        return f"processes:{workers}", workers
+    return "in-process", 1
+
+
+def _found(study: Study, store: Any, retry_failed: bool) -> int:
+    """Cells of ``study`` already in ``store`` (a dry run: read-only)."""
+    if isinstance(store, MemoryStore):
+        return 0
+    path = store.path if isinstance(store, ResultStore) else Path(store)
+    return _count_stored(study, path, retry_failed)
+
+
 def _inspect_before_work(path: Path) -> None:
     """Fail now, before any work, on a store path that cannot become a store."""
     if inspect_store(path) != "missing":  # raises for a folder or a foreign file
@@ -526,6 +544,7 @@ def _run(
     lease: float,
 ) -> SweepSummary:
     t_start = time.perf_counter()
+    st.ensure_kind(study.setup.kind)
     run_id = st.start_run(
         backend=backend, planned=study.n_cells, skipped=0, config=study.config.as_dict()
     )
@@ -581,23 +600,28 @@ def _run(
         if pool is not None:
             # Interrupted or failed: stop the workers now, not after their tasks.
             stop_pool(pool, terminate=outcome != "complete")
-        try:
-            if outcome == "nothing to do":
-                st.forget_run(run_id)  # a run that did nothing leaves no record
-            else:
-                st.finish_run(
-                    run_id, outcome, tally.computed, tally.failed, skipped=tally.skipped,
-                    elsewhere=tally.elsewhere, duplicates=tally.duplicates,
-                )  # fmt: skip
-        except OSError:
-            if outcome == "complete":
-                raise
-            # The run's own error (e.g. a full disk) is the one to report.
+        _record(st, run_id, outcome, tally)
     return SweepSummary(
         run_id, study.n_cells, tally.skipped, tally.computed, tally.failed, backend,
         time.perf_counter() - t_start, tally.store_s, tally.compute_s, tally.sim_s,
         tally.elsewhere, tally.duplicates, outcome,
     )  # fmt: skip
+
+
+def _record(st: Any, run_id: str, outcome: str, tally: _Tally) -> None:
+    """Mark the run with its outcome and counts (a run that did nothing: no record)."""
+    try:
+        if outcome == "nothing to do":
+            st.forget_run(run_id)
+        else:
+            st.finish_run(
+                run_id, outcome, tally.computed, tally.failed, skipped=tally.skipped,
+                elsewhere=tally.elsewhere, duplicates=tally.duplicates,
+            )  # fmt: skip
+    except OSError:
+        if outcome == "complete":
+            raise
+        # The run's own error (e.g. a full disk) is the one to report.
 
 
 def _n(client: Any) -> int:
@@ -628,11 +652,13 @@ class StudyResult:
     study : Study
         The plan.
     cells : list of dict
-        One row per planned cell, in plan order: the configuration columns of a
-        store row (``h``, ``eta_pct``, ``v_pct``, ``seed``, ``method``, ``norm``,
-        ``traj_key``, ``kind``, ...) and the results ``err_eta``, ``err_v``,
-        ``err_all``, ``status``, ``error`` and ``result`` (a dict: the named results
-        of a cell kind other than prediction, else empty).
+        One row per planned cell, in plan order, as the kind's view of the store
+        shows it: the common columns (``h``, ``eta_pct``, ``v_pct``, ``seed``,
+        ``method``, ``traj_key``, ``kind``, ``status``, ``error``, ...), the measure
+        under the kind's name for it (``norm`` of a prediction, ``horizon`` of a
+        multistep study) and the kind's values, typed (:attr:`CellKind.columns`:
+        ``err_eta``, ``err_v``, ``err_all`` of a prediction; NaN for a float the
+        cell has not).
     trajectories : dict
         traj_key -> its row: ``certificate``, ``n_samples``, ``summary`` (a dict),
         ``h``, ``status``, ``error``.
@@ -644,6 +670,21 @@ class StudyResult:
     cells: list[dict[str, Any]]
     trajectories: dict[str, dict[str, Any]]
     summary: SweepSummary
+
+    def certificates(self) -> dict[float, float]:
+        """h -> certificate of the exact samples (NaN where there is none)."""
+        out: dict[float, float] = {}
+        for t in sorted(self.trajectories.values(), key=lambda r: r["h"]):
+            cert = t.get("certificate")
+            out[float(t["h"])] = math.nan if cert is None else float(cert)
+        return out
+
+    def summaries(self) -> dict[float, dict[str, Any]]:
+        """h -> the numbers stored with the exact samples (``summaries`` of the grid)."""
+        return {
+            float(t["h"]): dict(t.get("summary") or {})
+            for t in sorted(self.trajectories.values(), key=lambda r: r["h"])
+        }
 
 
 def run_study(
@@ -691,13 +732,24 @@ def run_study(
             f"{len(keys) - len(cells)} of the study's {len(keys)} cells are not in the store "
             "(another run is computing them); run again when it has finished."
         )
-    cells = [{**c, "result": _decoded(c.get("result"))} for c in cells]
+    cells = [_view_row(study.setup.kind, c) for c in cells]
     traj_rows = {}
     for t in trajs:
         row = dict(t)
         row["summary"] = _decoded(row.get("summary"))
         traj_rows[row["traj_key"]] = row
     return StudyResult(study, cells, traj_rows, summary)
+
+
+def _view_row(kind: Any, row: dict[str, Any]) -> dict[str, Any]:
+    """A stored cell as its kind's view shows it: the common columns, the measure
+    under the kind's name for it (``norm``, ``horizon``), the kind's values typed."""
+    common = {k: v for k, v in row.items() if k in _COMMON}
+    common[kind.measure_name] = common.pop("measure")
+    return {**common, **kind.decode(row)}
+
+
+_COMMON = frozenset(name for name, _type in CELL_COLUMNS)
 
 
 def backend_options(

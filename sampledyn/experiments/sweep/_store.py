@@ -1,27 +1,34 @@
 """The results store: one SQLite file, one row per cell, written by the client only.
 
 A store is marked as such: its SQLite header carries the application id
-:data:`APPLICATION_ID` ("SDYN") and its table ``meta`` the schema version. A file
-without the mark (another application's database, a text file) is refused before
-anything is written to it, and left byte for byte as it was. Stores written before
-the mark existed (schema 1) are recognised by their tables and marked when a run
-next writes to them.
+:data:`APPLICATION_ID` ("SDYN") and its table ``meta`` the schema version (3). A
+file without the mark (another application's database, a text file) is refused
+before anything is written to it, and left byte for byte as it was. Stores of older
+schemas are read as they are (read-only) and upgraded when a run next writes to
+them: schema 1 (before the mark) is recognised by its tables; schema 2 (the columns
+of the prediction study: ``norm``, ``err_eta``..., other kinds' numbers as JSON in
+``result``) has its rows moved to the generic layout, or is refused untouched,
+with the reason, if it holds cells of a kind this process does not know.
 
 Tables
 ------
 cells
-    One row per cell, primary key ``key`` = SHA-256 of the cell's configuration
-    (stored as JSON in ``config``), which includes the library version, the norm and
-    fingerprints of the model and input. Columns: the configuration spread out
-    (vehicle, input, T, after, h, method, order, eta_pct, v_pct, seed, norm, ...),
-    the results ``err_eta``, ``err_v``, ``err_all`` (the norm over the position/angle
-    components, the rate components, all components), ``status`` ("ok"/"error"),
-    ``error``, ``warnings``, ``seconds`` (compute time of the cell on its worker),
-    ``worker``, ``run_id`` and ``computed_at`` (Unix time); ``kind``, the study's
-    cell kind ("prediction", "closed_loop", "multistep"; NULL in rows written before
-    kinds existed: prediction), and ``result``, the named results of a kind other
-    than prediction as JSON (e.g. a closed loop's residual set), spread into columns
-    by :func:`load_results`.
+    One generic row per cell: (key, kind, coordinates, values). ``key`` (primary
+    key) = SHA-256 of the cell's configuration (stored as JSON in ``config``), which
+    includes the library version, the measure and fingerprints of the model and
+    input; ``kind``, the study's cell kind ("prediction", "closed_loop",
+    "multistep", ...); the coordinates every kind has (vehicle, input, T, after, h,
+    method, order, eta_pct, v_pct, seed, base_seed, distribution, ``measure``: the
+    norm of a prediction, the horizon "k=3" of a multistep study, ...), ``status``
+    ("ok"/"error"), ``error``, ``warnings``, ``seconds`` (compute time of the cell on
+    its worker), ``worker``, ``run_id`` and ``computed_at`` (Unix time); then one
+    column per value a kind declares (:attr:`CellKind.columns`: ``err_eta``,
+    ``err_v``, ``err_all`` of a prediction; ``depth_p95``, ``outcome``, ... of a
+    closed loop), added when a kind first writes to the store, NULL in the rows of
+    other kinds.
+cells_<kind> (views)
+    One view per kind written: the common columns, the measure under the kind's
+    name for it (``norm``, ``horizon``), and the kind's own value columns.
 trajectories
     One row per exact-sample trajectory: its configuration, certificate (largest
     scaled per-interval flow error), samples, simulation time and ``summary`` (JSON:
@@ -75,13 +82,15 @@ __all__ = [
 
 #: SQLite ``application_id`` of a results store: the bytes "SDYN".
 APPLICATION_ID = 0x5344594E
-SCHEMA_VERSION = "2"
-_OLDER_SCHEMAS = ("1",)  # recognised by their tables, upgraded when written to
+SCHEMA_VERSION = "3"
+_OLDER_SCHEMAS = ("1", "2")  # read as they are, upgraded when written to
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _SIDE_FILES = ("-wal", "-shm", "-journal")
 
+#: The columns every cell has (its kind's values follow, :attr:`CellKind.columns`).
 CELL_COLUMNS: tuple[tuple[str, str], ...] = (
     ("key", "TEXT PRIMARY KEY"),
+    ("kind", "TEXT"),
     ("run_id", "TEXT NOT NULL"),
     ("computed_at", "REAL NOT NULL"),
     ("status", "TEXT NOT NULL"),
@@ -101,20 +110,26 @@ CELL_COLUMNS: tuple[tuple[str, str], ...] = (
     ("seed", "INTEGER"),
     ("base_seed", "INTEGER"),
     ("distribution", "TEXT"),
-    ("norm", "TEXT"),
-    ("err_eta", "REAL"),
-    ("err_v", "REAL"),
-    ("err_all", "REAL"),
+    ("measure", "TEXT"),
     ("seconds", "REAL"),
     ("worker", "TEXT"),
     ("traj_key", "TEXT"),
     ("error", "TEXT"),
     ("warnings", "TEXT"),
     ("config", "TEXT NOT NULL"),
+)
+#: The cells table of schema 2 (the prediction study's columns; other kinds' values as
+#: JSON in ``result``), read as it is and moved to the generic layout when written to.
+CELL_COLUMNS_2: tuple[tuple[str, str], ...] = (
+    *((n, t) for n, t in CELL_COLUMNS if n not in ("kind", "measure")),
+    ("norm", "TEXT"),
+    ("err_eta", "REAL"),
+    ("err_v", "REAL"),
+    ("err_all", "REAL"),
     ("kind", "TEXT"),
     ("result", "TEXT"),
 )
-_CELL_COLUMNS_ADDED = ("kind", "result")  # added to stores written before (same schema)
+_SQL_TYPES = {float: "REAL", int: "INTEGER", bool: "INTEGER", str: "TEXT"}
 
 _TRAJ_COLUMNS = (
     ("traj_key", "TEXT PRIMARY KEY"),
@@ -385,8 +400,10 @@ class ResultStore:
                     self._init_schema()
                 elif kind == "older":
                     self._upgrade()
+                    self._migrate()
                 else:
                     self._add_columns()
+                    self._migrate()
         try:
             self._check_schema()
         except (ValueError, OSError):
@@ -477,9 +494,7 @@ class ResultStore:
             conn.execute("CREATE INDEX IF NOT EXISTS claims_run ON claims (run_id)")
             for table, name, kind in self._missing_columns():
                 conn.execute(f'ALTER TABLE {table} ADD COLUMN "{name}" {kind}')
-            conn.execute(
-                "UPDATE meta SET value = ? WHERE name = 'schema_version'", (SCHEMA_VERSION,)
-            )
+            conn.execute("UPDATE meta SET value = '2' WHERE name = 'schema_version'")
             conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
         self._wal()
         # Move the marked header from the log into the file itself.
@@ -490,7 +505,7 @@ class ResultStore:
         out = []
         for table, columns, added in (
             ("trajectories", _TRAJ_COLUMNS, _TRAJ_COLUMNS_ADDED),
-            ("cells", CELL_COLUMNS, _CELL_COLUMNS_ADDED),
+            ("cells", CELL_COLUMNS_2, ("kind", "result")),
         ):
             have = {r[1] for r in self._conn.execute(f"PRAGMA table_info({table})")}
             if have:
@@ -499,11 +514,92 @@ class ResultStore:
 
     def _add_columns(self) -> None:
         """Add the columns of this version that the store lacks."""
-        missing = self._missing_columns()
+        missing = [m for m in self._missing_columns() if m[0] != "cells"]
         if missing:
             with self._transaction():
                 for table, name, kind in missing:
                     self._conn.execute(f'ALTER TABLE {table} ADD COLUMN "{name}" {kind}')
+
+    def _version(self) -> str | None:
+        row = self._conn.execute("SELECT value FROM meta WHERE name = 'schema_version'").fetchone()
+        return None if row is None else str(row[0])
+
+    def _migrate(self) -> None:
+        """Move the cells of a schema-2 store to the generic layout (schema 3), in one
+        transaction: ``norm`` becomes ``measure``, a NULL kind "prediction", the JSON
+        ``result`` of other kinds their own value columns. A store holding a kind this
+        process does not know is refused, untouched, with the reason."""
+        conn = self._conn
+        with self._transaction():
+            if self._version() != "2":
+                return  # already migrated (by another run), or newer: refused later
+            have = {r[1] for r in conn.execute("PRAGMA table_info(cells)")}
+            for name in ("kind", "result"):
+                if name not in have:
+                    conn.execute(f'ALTER TABLE cells ADD COLUMN "{name}" TEXT')
+            conn.execute("UPDATE cells SET kind = 'prediction' WHERE kind IS NULL")
+            names = [r[0] for r in conn.execute("SELECT DISTINCT kind FROM cells")]
+            kinds = [_kind_of(name, self.path) for name in names]
+            conn.execute('ALTER TABLE cells RENAME COLUMN "norm" TO "measure"')
+            for kind in kinds:
+                self._add_kind_columns(kind)
+            rows = conn.execute(
+                "SELECT key, kind, result FROM cells WHERE result IS NOT NULL AND result <> ''"
+            ).fetchall()
+            for key, kind_name, text in rows:
+                declared = {n for n, _t in _kind_of(kind_name, self.path).columns}
+                named = {k: v for k, v in json.loads(text).items() if k in declared}
+                if named:
+                    sets = ", ".join(f'"{k}" = ?' for k in named)
+                    conn.execute(f"UPDATE cells SET {sets} WHERE key = ?", (*named.values(), key))
+            conn.execute('ALTER TABLE cells DROP COLUMN "result"')
+            for kind in kinds:
+                self._create_view(kind)
+            conn.execute(
+                "UPDATE meta SET value = ? WHERE name = 'schema_version'", (SCHEMA_VERSION,)
+            )
+
+    def _add_kind_columns(self, kind: Any) -> None:
+        have = {r[1]: r[2] for r in self._conn.execute("PRAGMA table_info(cells)")}
+        for name, typ in kind.columns:
+            sql = _SQL_TYPES[typ]
+            if name not in have:
+                self._conn.execute(f'ALTER TABLE cells ADD COLUMN "{name}" {sql}')
+            elif have[name].upper() != sql:
+                raise ValueError(
+                    f"cell kind {kind.name!r} stores {name!r} as {sql}, but the results store "
+                    f"{str(self.path)!r} has it as {have[name]} (another kind's); rename the "
+                    "kind's column."
+                )
+
+    def _create_view(self, kind: Any) -> None:
+        common = [n for n, _t in CELL_COLUMNS]
+        cols = [f'"{n}"' if n != "measure" else f'"measure" AS "{kind.measure_name}"'
+                for n in common]  # fmt: skip
+        cols += [f'"{n}"' for n, _t in kind.columns if n not in common]
+        self._conn.execute(
+            f'CREATE VIEW IF NOT EXISTS "cells_{kind.name}" AS SELECT {", ".join(cols)} '
+            f"FROM cells WHERE kind = '{kind.name}'"
+        )
+
+    def ensure_kind(self, kind: Any) -> None:
+        """Make the store ready for cells of ``kind``: its value columns and its view
+        (created by the first run of that kind).
+
+        Raises
+        ------
+        ValueError
+            if a column of the kind exists with another type (another kind's).
+        """
+        have = {r[1] for r in self._conn.execute("PRAGMA table_info(cells)")}
+        views = {
+            r[0] for r in self._conn.execute("SELECT name FROM sqlite_master WHERE type='view'")
+        }
+        if all(n in have for n, _t in kind.columns) and f"cells_{kind.name}" in views:
+            return
+        with _translated(self.path), self._transaction():
+            self._add_kind_columns(kind)
+            self._create_view(kind)
 
     def _check_schema(self) -> None:
         with _translated(self.path):
@@ -520,6 +616,7 @@ class ResultStore:
                 f"{str(self.path)!r} has store schema {row[0]}, this library reads "
                 f"{SCHEMA_VERSION}; use the library version that wrote it."
             )
+        self.schema = str(row[0])
 
     @contextmanager
     def _transaction(self) -> Iterator[None]:
@@ -565,6 +662,8 @@ class ResultStore:
                 cur = self._conn.execute(f"SELECT * FROM {table} WHERE {column} IN ({marks})", part)
                 names = [d[0] for d in cur.description]
                 out.extend(dict(zip(names, r, strict=True)) for r in cur.fetchall())
+        if table == "cells" and self.schema != SCHEMA_VERSION:
+            out = [_generic_row(r) for r in out]  # an older store, read as it is
         return out
 
     def count(self, table: str = "cells") -> int:
@@ -712,7 +811,8 @@ class ResultStore:
         int
             Cells written (the others were stored "ok" already, by another run).
         """
-        names = [n for n, _ in CELL_COLUMNS]
+        common = [n for n, _ in CELL_COLUMNS]
+        names = common + list(dict.fromkeys(k for c in cells for k in c if k not in common))
         cols = ", ".join(f'"{n}"' for n in names)
         updates = ", ".join(f'"{n}" = excluded."{n}"' for n in names[1:])
         cell_sql = (
@@ -772,15 +872,48 @@ class ResultStore:
         self.close()
 
 
+def _kind_of(name: str, path: Path) -> Any:
+    """The registered cell kind of the rows of a store (refusing an unknown one)."""
+    from ._cells import get_cell_kind
+
+    try:
+        return get_cell_kind(name)
+    except ValueError as exc:
+        raise ValueError(
+            f"{str(path)!r} holds cells of kind {name!r}, which this process does not know "
+            f"({exc}); register the kind (register_cell_kind) before writing to the store, or "
+            "read it read-only (sampledyn results); it was left untouched."
+        ) from exc
+
+
+def _generic_row(row: dict[str, Any]) -> dict[str, Any]:
+    """A cell row of a schema-2 store in the generic layout: ``norm`` as ``measure``,
+    a NULL kind as "prediction", the JSON ``result`` as value columns."""
+    out = {k: v for k, v in row.items() if k not in ("norm", "result")}
+    out["measure"] = row.get("norm")
+    out["kind"] = row.get("kind") or "prediction"
+    text = row.get("result")
+    if isinstance(text, str) and text:
+        out.update(json.loads(text))
+    return out
+
+
 def load_results(
-    path: str | os.PathLike[str], table: str = "cells", *, status: str | None = None
+    path: str | os.PathLike[str],
+    table: str = "cells",
+    *,
+    kind: str | None = None,
+    status: str | None = None,
 ) -> Any:
     """The rows of a results store as a pandas DataFrame (see :func:`sampledyn.results.load`).
 
     The store is opened read-only: it may sit on read-only media or be written by a
-    running sweep meanwhile. The named results of cells of a kind other than
-    prediction (the ``result`` column, JSON) come as one column per name (e.g.
-    ``depth_p95`` of a closed-loop study), NaN/None in the rows without it.
+    running sweep meanwhile. ``table="cells"``: every cell, generic (the common
+    columns, ``measure``, and the value columns of every kind, NaN/None where a row's
+    kind has no such value); with ``kind``, the view of that kind: its cells only,
+    the common columns, the measure under the kind's name for it (``norm``,
+    ``horizon``) and the kind's own values. A store of an older schema is read as it
+    is, in the same layout.
     """
     import pandas as pd
 
@@ -788,8 +921,9 @@ def load_results(
         raise ValueError(f"unknown `table` {table!r}; valid: {', '.join(_TABLES)}.")
     if status not in (None, "ok", "error"):
         raise ValueError(f"`status` must be None, 'ok' or 'error', got {status!r}.")
-    if status is not None and table != "cells":
-        raise ValueError("`status` filters the 'cells' table only.")
+    if (status is not None or kind is not None) and table != "cells":
+        raise ValueError("`status` and `kind` select from the 'cells' table only.")
+    cell_kind = None if kind is None else _kind_of(kind, Path(path))
     with ResultStore(path, readonly=True) as store:
         query = f"SELECT * FROM {table}"
         params: tuple[Any, ...] = ()
@@ -798,19 +932,40 @@ def load_results(
             params = (status,)
         with _translated(store.path):
             df = pd.read_sql_query(query + " ORDER BY rowid", store.connection(), params=params)
+        schema = store.schema
     for col in ("computed_at", "started_at", "finished_at", "heartbeat"):
         if col in df.columns:
             df[col] = pd.to_datetime(df[col], unit="s", utc=True)
-    return _spread_results(df)
+    if table == "cells" and schema != SCHEMA_VERSION:
+        df = _generic_frame(df)
+    return df if cell_kind is None else _kind_view(df, cell_kind)
 
 
-def _spread_results(df: Any) -> Any:
-    """The cells' ``result`` JSON (named results of a cell kind other than
-    prediction) as one column per name, in place of ``result``."""
-    if "result" not in df.columns:
-        return df
+def _kind_view(df: Any, kind: Any) -> Any:
+    """The rows of ``kind`` as its view of the store shows them."""
+    rows = df[df["kind"] == kind.name]
+    common = [n for n, _t in CELL_COLUMNS if n in rows.columns]
+    values = [n for n, _t in kind.columns if n not in common]
+    view = rows[common + [n for n in values if n in rows.columns]].copy()
+    for name, typ in kind.columns:
+        if name not in view.columns:
+            view[name] = None
+        elif typ is bool:
+            view[name] = [None if v is None or v != v else bool(v) for v in view[name]]
+    return view.rename(columns={"measure": kind.measure_name}).reset_index(drop=True)
+
+
+def _generic_frame(df: Any) -> Any:
+    """The cells of a schema-2 store in the generic layout (see :func:`_generic_row`)."""
     import pandas as pd
 
+    df = df.rename(columns={"norm": "measure"})
+    if "kind" in df.columns:
+        df["kind"] = df["kind"].fillna("prediction")
+    else:
+        df["kind"] = "prediction"
+    if "result" not in df.columns:
+        return df
     parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in df["result"]]
     df = df.drop(columns="result")
     names = [n for n in dict.fromkeys(k for r in parsed for k in r) if n not in df.columns]
