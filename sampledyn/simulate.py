@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from . import _integrator as _int
-from ._integrator import DEFAULT_MAX_STEPS, integrate_intervals, no_gradient
+from ._integrator import DEFAULT_MAX_STEPS, integrate_intervals
 from ._trajectory import Certificate, NumericalError, SlidingInterval, Trajectory
 from .models import index_switch as _index_switch
 from .models import readonly
@@ -37,7 +37,6 @@ __all__ = [
     "IntegrationError",
     "JumpRefused",
     "integrate_intervals",
-    "no_gradient",
     "simulate",
     "switching",
 ]
@@ -352,7 +351,7 @@ class _Integration:
         get = getattr(model, "jump_kernel", None)
         jumps = get() if get is not None else None
         if jumps is None:
-            self.rhs, self.grad = rhs, _int.no_gradient
+            self.rhs, self.grad = rhs, None  # the integrator's smooth specialisation
             self.q = np.array(p, dtype=float)
             info = np.full((n_sw, 2), -1, dtype=np.int64)
             info[:, 1] = 0
@@ -384,7 +383,7 @@ class _Integration:
         )  # fmt: skip
         while True:
             start = time.perf_counter()
-            status = _int.integrate(
+            status = _int.integrator(self.grad is None)(
                 self.rhs, self.grad, self.q, *args, float(self.rtol), float(self.atol),
                 bool(self.certify), t.shape[0] - 1, self.sw, self.sp, self.info, X, steps,
                 diff, restart, st, self.W, self.log, self.budget, self.max_steps,

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from ._base import CompiledModel, LinearForm, _as_batch, readonly
+from ._base import JAC_BLOCK_ROWS, CompiledModel, LinearForm, _as_batch, in_row_blocks, readonly
 from ._rigid_body import (
     check_pitch,
     coriolis_matrix,
@@ -930,7 +930,9 @@ class Vehicle(CompiledModel):
         tt, xx, uu, single = _as_batch(t, x, u, self.nx, self.nu)
         check_pitch(xx[:, 4], self.pitch_tolerance_deg)
         batch = self._kernels.get("batch_jac_u")
-        out = batch(readonly(tt), readonly(xx), readonly(uu), self._p)
+        out = in_row_blocks(
+            batch, readonly(tt), readonly(xx), readonly(uu), self._p, JAC_BLOCK_ROWS
+        )
         return out[0] if single else out
 
     def jac_v_v(self, t: Any, x: Any, u: Any) -> np.ndarray:
