@@ -385,8 +385,9 @@ def _first_event(
     tau = dt
     found = -1
     probed = False
-    for k in range(n_sw + 2):
-        if k >= n_sw or sw_info[k, 0] >= 0:
+    # (without a gradient kernel there is no jump and no sliding speed: kinks only)
+    for k in range(n_sw if grad is None else n_sw + 2):
+        if grad is not None and (k >= n_sw or sw_info[k, 0] >= 0):
             if k == mode[0] or (k >= n_sw and mode[0] < 0):
                 continue  # the surface slid on; no sliding speeds without sliding
             # sigma_- > 0 and sigma_+ < 0 while sliding; a zero of either ends it
@@ -608,7 +609,7 @@ def _attempt(
             dt = tau
             continue
         cut = found if found >= 0 else cut
-        if cut < 0 or cut >= n_sw or sw_info[cut, 0] < 0 or tries >= 40:
+        if grad is None or cut < 0 or cut >= n_sw or sw_info[cut, 0] < 0 or tries >= 40:
             return dt, tn, cut, -1
         # A jump: its crossing to rounding, by the secant method on the step's own end
         # values. (The interpolant places it to about 1e-9 of a step, which is enough
