@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from .._trajectory import Trajectory
+from ..models import readonly
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -247,10 +248,10 @@ class RungeKutta(FixedRule):
                 if i == 0 and at_samples is not None:
                     ks.append(np.array(at_samples[blk]))  # writable, C-ordered
                     continue
-                xi = _combine(xb, hb, a[i], tuple(ks), pb, False) if a[i].any() else xb
+                xi = _combine(xb, hb, a[i], ks, pb, False, tab.stages) if a[i].any() else xb
                 k = model.f(times[cs[i]][blk], xi, inputs[cs[i]][blk])
                 ks.append(np.require(k, dtype=float, requirements=("C", "W")))
-            _combine(xb, hb, b, tuple(ks), out[1 + lo : 1 + blk.stop], True)
+            _combine(xb, hb, b, ks, out[1 + lo : 1 + blk.stop], True, tab.stages)
         return out
 
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
@@ -324,14 +325,20 @@ def _combine(
     x0: np.ndarray,
     h: np.ndarray,
     coeffs: np.ndarray,
-    ks: tuple[np.ndarray, ...],
+    ks: list[np.ndarray],
     out: np.ndarray,
     scale_sum: bool,
+    stages: int,
 ) -> np.ndarray:
     """One compiled pass over the intervals: ``x0 + sum_j (h_n c_j) k_j`` (stage points;
     zero c_j skipped) or, with ``scale_sum``, ``x0 + h_n sum_j c_j k_j`` (the
-    increment), written into ``out``, shape (N - 1, nx), and returned."""
-    _combine_rows(x0, h, coeffs, ks, out, scale_sum)
+    increment), written into ``out``, shape (N - 1, nx), and returned.
+
+    ``ks`` (the first len(coeffs) stages) goes to the compiled pass as a tuple of
+    ``stages`` arrays, padded with its first, and every array as a read-only view: one
+    specialisation per number of stages, not one per stage and per array flag."""
+    padded = tuple(readonly(k) for k in ks) + (readonly(ks[0]),) * (stages - len(ks))
+    _combine_rows(readonly(x0), readonly(h), readonly(coeffs), padded, out, scale_sum)
     return out
 
 
