@@ -1,12 +1,13 @@
-"""Compiled sums over the rows of an array, in a fixed order (imported on first use:
-the modules that offer them stay free of numba at import time)."""
+"""Compiled passes over the rows of an array: sums in a fixed order, noisy samples
+(imported on first use: the modules that offer them stay free of numba at import
+time)."""
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-__all__ = ["squares_in_order", "squares_of_sets"]
+__all__ = ["add_scaled_draws", "squares_in_order", "squares_of_sets"]
 
 
 @njit(cache=True)
@@ -56,3 +57,14 @@ def squares_of_sets(e, cols, starts, dest, parent, skip, out):  # pragma: no cov
                     acc[r] += sq[c, r]
             for r in range(m):
                 out[dest[k], lo + r] = acc[r]
+
+
+@njit(cache=True)
+def add_scaled_draws(x, draws, cols, amp, low, span, out):  # pragma: no cover - compiled
+    """``out[n, cols[k]] = x[n, cols[k]] + (low + span draws[n, k]) amp[cols[k]]``, each
+    operation rounded in that order (numpy's ``uniform(low, low + span)`` of the draws,
+    times the amplitude, added to the sample); the other columns of ``out`` untouched."""
+    for n in range(x.shape[0]):
+        for k in range(cols.shape[0]):
+            c = cols[k]
+            out[n, c] = x[n, c] + (low + span * draws[n, k]) * amp[c]
