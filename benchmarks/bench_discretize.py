@@ -34,7 +34,8 @@ from _rows import row, write_json
 from bench_models import best_per_call  # the interleaved best-of timer (same folder)
 
 import sampledyn as sd
-from sampledyn.models import load_vehicle, readonly
+from sampledyn.models import load_vehicle
+from sampledyn.models._base import readonly
 from sampledyn.signals import fig6_thrusters
 
 
@@ -96,11 +97,8 @@ def main() -> None:
     ])  # fmt: skip
 
     if args.study:
-        from sampledyn.experiments import (
-            ClosedLoopStudy,
-            run_closed_loop_study,
-            summarize_closed_loop,
-        )
+        from sampledyn.experiments import ClosedLoopStudy
+        from sampledyn.experiments._closed_loop import run_closed_loop_study, summarize_closed_loop
 
         study = ClosedLoopStudy()
         t0 = time.perf_counter()

@@ -159,7 +159,6 @@ def _child_timeline(argv: list[str]) -> None:
     def mark(name: str) -> None:
         marks.setdefault(name, time.time() - t_zero)
 
-    import sampledyn.experiments.sweep as sweep
     import sampledyn.experiments.sweep._compute as compute
     import sampledyn.experiments.sweep._prediction as prediction
     import sampledyn.experiments.sweep._run as run_mod
@@ -190,14 +189,14 @@ def _child_timeline(argv: list[str]) -> None:
         return pool
 
     run_mod.start_pool = start_pool
-    real_study = sweep.run_study  # the studies import it from the package when they run
+    real_study = run_mod.run_study  # the studies import it from there when they run
 
     def run_rov_study(*a: Any, **k: Any) -> Any:
         out = real_study(*a, **k)
         mark("engine done")
         return out
 
-    sweep.run_study = run_rov_study
+    run_mod.run_study = run_rov_study
     mark("imports done")
     from sampledyn.cli import main
 
@@ -276,7 +275,8 @@ def in_process() -> None:
     import sampledyn.experiments.sweep._run as run_mod
     import sampledyn.models._vehicle as vehicle
     from sampledyn.experiments._studies import get_study
-    from sampledyn.experiments.sweep import plan_study, run_study
+    from sampledyn.experiments.sweep._plan import plan_study
+    from sampledyn.experiments.sweep._run import run_study
 
     phases = dict.fromkeys(("f", "simulate", "predict (f excluded)", "norms", "noise"), 0.0)
 

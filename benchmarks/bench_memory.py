@@ -31,7 +31,7 @@ CHILD = r"""
 import json, resource, sys, tracemalloc, warnings
 import numpy as np
 import sampledyn as sd
-from sampledyn.experiments import fig7_vehicle
+from sampledyn.experiments._rov import fig7_vehicle
 from sampledyn.signals import fig6_thrusters
 
 case, T, h, name = sys.argv[1], float(sys.argv[2]), float(sys.argv[3]), sys.argv[4]

@@ -39,7 +39,9 @@ import numpy as np
 from _rows import row, write_json
 
 import sampledyn as sd
-from sampledyn.methods import ab_filter, get_method, grid_steps
+from sampledyn.methods import get_method
+from sampledyn.methods._adams import ab_filter
+from sampledyn.methods._base import grid_steps
 
 
 def best_of(fn, repeat=7):

@@ -44,7 +44,7 @@ import numpy as np
 from _rows import row, write_json
 
 import sampledyn as sd
-from sampledyn.experiments import fig7_vehicle
+from sampledyn.experiments._rov import fig7_vehicle
 from sampledyn.models._base import _batch_rhs, readonly
 
 

@@ -58,8 +58,8 @@ from _rows import write_json
 from scipy.integrate import solve_ivp
 
 import sampledyn as sd
-from sampledyn.experiments import fig7_vehicle
-from sampledyn.simulate import switching
+from sampledyn._simulate import switching
+from sampledyn.experiments._rov import fig7_vehicle
 
 
 @nb.njit

@@ -26,7 +26,7 @@ import warnings
 from _rows import row, write_json
 
 import sampledyn as sd
-from sampledyn.experiments import fig7_vehicle
+from sampledyn.experiments._rov import fig7_vehicle
 
 TOL = 1e-11
 T, H = 5000.0, 0.1

@@ -31,7 +31,9 @@ from pathlib import Path
 
 from _rows import row, write_json
 
-from sampledyn.experiments.sweep import ResultStore, SweepSummary, local_cluster, run_sweep
+from sampledyn.experiments.sweep import local_cluster, run_sweep
+from sampledyn.experiments.sweep._run import SweepSummary
+from sampledyn.experiments.sweep._store import ResultStore
 
 CONFIG = """\
 vehicle = "auv_like"

@@ -23,7 +23,7 @@ import control
 import numpy as np
 
 import sampledyn as sd
-from sampledyn.discretize import LinearLaw, run_loop
+from sampledyn import LinearLaw, run_loop
 from sampledyn.experiments import trim
 from sampledyn.models import load_vehicle
 

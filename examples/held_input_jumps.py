@@ -30,7 +30,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import sampledyn as sd
-from sampledyn.experiments import away_from_jumps, away_from_kinks
+from sampledyn.experiments.sweep import away_from_jumps, away_from_kinks
 from sampledyn.methods import ab_coefficients
 
 H, T, AFTER, SEED = 0.01, 200.0, 20.0, 0

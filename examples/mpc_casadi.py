@@ -7,7 +7,7 @@ Function derived from the vehicle kernel's own source (no second copy of the
 equations). A multiple-shooting problem over the horizon is built once with
 ``casadi.nlpsol(..., "ipopt", ...)`` and solved at every sample from the measured state
 (warm-started); the first input is applied to the exact plant by
-``sampledyn.discretize.run_loop`` (held over the interval, thrusters saturating at
+``sampledyn.run_loop`` (held over the interval, thrusters saturating at
 n_max inside the plant). The same Function can be handed to do-mpc as its discrete-time
 model (``model_type="discrete"``, rhs = F(z, u)). acados is not on the package index,
 so that route is untested here.
@@ -24,7 +24,7 @@ import casadi as ca
 import numpy as np
 
 import sampledyn as sd
-from sampledyn.discretize import run_loop
+from sampledyn import run_loop
 from sampledyn.experiments import trim
 from sampledyn.models import load_vehicle
 

@@ -12,47 +12,52 @@ command, which speaks before the numerical kernels load or compile) is instant.
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__ as __version__
 
 # Public name -> module that defines it (None: the name is a subpackage or module).
+# Each name is one thing: the modules behind the functions are private (``_simulate``,
+# ``_predict``, ``_estimate``, ``_discretize``, ...), so ``sampledyn.discretize`` is the
+# function, whatever was imported before.
 _EXPORTS: dict[str, str | None] = {
     "AdamsBashforth": ".methods",
     "Certificate": "._trajectory",
-    "NumericalError": "._trajectory",
-    "EstimatedAdamsBashforth": ".estimate",
-    "EstimationResult": ".estimate",
+    "DiscreteModel": "._discretize",
+    "EstimatedAdamsBashforth": "._estimate",
+    "EstimationResult": "._estimate",
     "Euler": ".methods",
+    "LinearLaw": "._discretize",
     "RungeKutta": ".methods",
     "Trajectory": "._trajectory",
     "Tustin": ".methods",
-    "add_noise": ".noise",
+    "add_noise": "._noise",
     "advise": ".experiments",
     "available_methods": ".methods",
-    "discretize": ".discretize",
-    "error_norm": ".errors",
-    "estimate": ".estimate",
-    "estimate_and_predict": ".estimate",
+    "discretize": "._discretize",
+    "error_norm": "._local_errors",
+    "estimate": "._estimate",
+    "estimate_and_predict": "._estimate",
+    "exceptions": None,
     "experiments": None,
-    "logs": None,
     "get_method": ".methods",
-    "local_errors": ".errors",
+    "local_errors": "._local_errors",
+    "logs": None,
     "methods": None,
     "models": None,
-    "predict": ".predict",
+    "predict": "._predict",
     "report": None,
     "results": None,
+    "run_loop": "._discretize",
     "sensitivity": None,
     "signals": None,
-    "simulate": ".simulate",
+    "simulate": "._simulate",
 }
 
 __all__ = sorted(_EXPORTS)
 
 if TYPE_CHECKING:
+    from . import exceptions as exceptions
     from . import experiments as experiments
     from . import logs as logs
     from . import methods as methods
@@ -61,16 +66,21 @@ if TYPE_CHECKING:
     from . import results as results
     from . import sensitivity as sensitivity
     from . import signals as signals
+    from ._discretize import DiscreteModel as DiscreteModel
+    from ._discretize import LinearLaw as LinearLaw
+    from ._discretize import discretize as discretize
+    from ._discretize import run_loop as run_loop
+    from ._estimate import EstimatedAdamsBashforth as EstimatedAdamsBashforth
+    from ._estimate import EstimationResult as EstimationResult
+    from ._estimate import estimate as estimate
+    from ._estimate import estimate_and_predict as estimate_and_predict
+    from ._local_errors import error_norm as error_norm
+    from ._local_errors import local_errors as local_errors
+    from ._noise import add_noise as add_noise
+    from ._predict import predict as predict
+    from ._simulate import simulate as simulate
     from ._trajectory import Certificate as Certificate
-    from ._trajectory import NumericalError as NumericalError
     from ._trajectory import Trajectory as Trajectory
-    from .discretize import discretize as discretize
-    from .errors import error_norm as error_norm
-    from .errors import local_errors as local_errors
-    from .estimate import EstimatedAdamsBashforth as EstimatedAdamsBashforth
-    from .estimate import EstimationResult as EstimationResult
-    from .estimate import estimate as estimate
-    from .estimate import estimate_and_predict as estimate_and_predict
     from .experiments import advise as advise
     from .methods import AdamsBashforth as AdamsBashforth
     from .methods import Euler as Euler
@@ -78,9 +88,6 @@ if TYPE_CHECKING:
     from .methods import Tustin as Tustin
     from .methods import available_methods as available_methods
     from .methods import get_method as get_method
-    from .noise import add_noise as add_noise
-    from .predict import predict as predict
-    from .simulate import simulate as simulate
 
 
 def __getattr__(name: str) -> Any:
@@ -97,17 +104,3 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted({*globals(), *_EXPORTS})
-
-
-class _Facade(types.ModuleType):
-    """Keeps ``sampledyn.simulate``, ``.predict`` and ``.estimate`` the functions when
-    their modules are imported (the import system sets a package attribute per
-    submodule; the eager package overwrote them with the functions likewise)."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if isinstance(value, types.ModuleType) and _EXPORTS.get(name) == f".{name}":
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Facade

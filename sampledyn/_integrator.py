@@ -62,7 +62,8 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.extending import intrinsic
 
 from . import _dop853 as _dop
-from .models import JAC_TYPE, RHS_TYPE, RO1, RO2, decide, sliding_weight
+from .models._base import JAC_TYPE, RHS_TYPE, RO1, RO2
+from .models._jumps import decide, sliding_weight
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
@@ -1003,8 +1004,8 @@ def integrate_intervals(
     """:func:`integrate` for a model without jumps (its smooth specialisation),
     intervals n_start..n_stop-1 in one call, with the step budget of
     :data:`DEFAULT_MAX_STEPS` per interval; returns (status, the next step proposal).
-    For compiled callers (the sampled loop of :func:`sampledyn.discretize.run_loop`);
-    ``x0`` is not read (X[n_start] is)."""
+    For compiled callers (the sampled loop of :func:`sampledyn.run_loop`); ``x0`` is
+    not read (X[n_start] is)."""
     nx = X.shape[1]
     n_sw = sw_input_only.shape[0]
     st = np.zeros(STATE_SLOTS + n_sw)

@@ -8,13 +8,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _checks as checks
+from .exceptions import ArgumentError
+
 __all__ = ["Certificate", "SlidingInterval", "Trajectory", "steps_on_grid", "uniform_grid"]
-
-
-class NumericalError(RuntimeError):
-    """A numerical method failed on these inputs (an implicit rule's Newton iteration
-    did not converge, the exact-sample integrator could not meet its tolerance); the
-    message says what to change (a smaller h, another rule, a looser tolerance)."""
 
 
 def _frozen(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:
@@ -185,8 +182,7 @@ class Trajectory:
             raise ValueError(
                 f"`u` must have shape (len(t), nu) = ({t.shape[0]}, nu), got {u.shape}."
             )
-        if not (np.isfinite(self.h) and self.h > 0):
-            raise ValueError(f"`h` must be a positive finite sampling period (s), got {self.h}.")
+        checks.period(self.h)
         nx = x.shape[1]
         if len(self.state_names) != nx or len(self.state_units) != nx:
             raise ValueError(
@@ -247,7 +243,7 @@ class Trajectory:
         intervals is dropped.
         """
         if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-            raise ValueError(f"`k` must be a positive int, got {k!r}.")
+            raise ArgumentError("k", f"`k` must be an int >= 1, got {k!r}.")
         n_int = (self.n_samples - 1) // k
         if n_int < 1:
             raise ValueError(f"k={k} leaves no interval of {self.n_samples - 1}.")

@@ -11,9 +11,9 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from .experiments.sweep import NotAStoreError, ResultStore, load_results
+from .experiments.sweep._store import ResultStore, load_results
 
-__all__ = ["NotAStoreError", "ResultStore", "load"]
+__all__ = ["ResultStore", "load"]
 
 
 def load(

@@ -13,7 +13,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import sampledyn as sd
-from sampledyn.logs import t200_rpm
+from sampledyn.logs._synthetic import survey_input
+from sampledyn.logs._t200 import t200_rpm
 
 T, H = 20.0, 0.1
 E = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])  # NED <-> ENU
@@ -27,7 +28,7 @@ def simulate_run() -> tuple[Any, Any, np.ndarray, np.ndarray, np.ndarray]:
     vehicle = sd.models.load_vehicle("bluerov2_heavy")
     c = -0.037 + 0.05 * np.arange(int(T / 0.05) + 2)
     # the survey motion of the example log, as whole-microsecond ESC commands
-    target = SIGN * sd.logs.survey_input(vehicle)(c)
+    target = SIGN * survey_input(vehicle)(c)
     pwm = np.rint(pwm_for(target)).astype(int)
     rpm = SIGN * t200_rpm(pwm, 16)
     traj = sd.simulate(vehicle, sd.signals.ZeroOrderHold(c, rpm), T=T, h=H)

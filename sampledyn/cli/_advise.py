@@ -5,9 +5,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._common import add_format, names, option, pair, print_json, refuse, writable_dir
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = ["add_parser"]
 
@@ -39,12 +42,12 @@ def _crossings(advice: Any) -> dict[str, list[float | None]]:
     return {name: list(advice.curves.crossing(name)) for name in advice.curves.methods}
 
 
-def _input(text: str, model: Any) -> Any:
+def _input(text: str, model: Model) -> Any:
     """The signal of ``--input``: a registered input name or an inline TOML table."""
     import tomllib
 
     from ..models import ClosedLoop
-    from ..signals import input_for
+    from ..signals._names import input_for
 
     text = text.strip()
     if text.startswith("{"):
@@ -109,7 +112,7 @@ def _run(args: argparse.Namespace) -> int:
         rank_by=args.rank_by,
         workers=args.workers,
     )
-    from ..report import plot_crossing
+    from ..report._sensitivity_figs import plot_crossing
 
     png = plot_crossing(advice.curves, out / "crossing.png", h_mark=args.h)
     if args.format == "json":
@@ -132,7 +135,7 @@ def _run(args: argparse.Namespace) -> int:
 def _methods(text: str | None) -> tuple[str, ...]:
     """``--methods``: the default rules when not given; an empty list is refused."""
     if text is None:
-        from ..experiments import DEFAULT_METHODS
+        from ..experiments._advise import DEFAULT_METHODS
 
         return tuple(DEFAULT_METHODS)
     chosen = names(text)
@@ -186,8 +189,8 @@ def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--methods",
         default=None,
-        help="comma-separated rules (default: sampledyn.experiments.DEFAULT_METHODS, "
-        "E, AB2-AB6, RK2-RK4 and T: the rules the bounds cover)",
+        help="comma-separated rules (default: E, AB2-AB6, RK2-RK4 and T: the rules the "
+        "bounds cover)",
     )
     p.add_argument("--T", type=float, default=60.0, help="reference run length in s (default 60)")
     p.add_argument("--seeds", type=int, default=3, help="Monte Carlo noise seeds (default 3)")

@@ -14,7 +14,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from ._status import UsageError
+from ..exceptions import UsageError
 
 __all__ = [
     "add_format",

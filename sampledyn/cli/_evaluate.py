@@ -5,9 +5,12 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._common import add_format, names, option, print_json, refuse, registry, writable_file
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = ["add_parser"]
 
@@ -30,7 +33,7 @@ def _check_estimate(rules: tuple[str, ...]) -> None:
             )
 
 
-def _json(args: argparse.Namespace, model: Any, data: Any, result: Any) -> dict[str, Any]:
+def _json(args: argparse.Namespace, model: Model, data: Any, result: Any) -> dict[str, Any]:
     """The document of ``evaluate --format json`` (keys in docs/cli.md)."""
     tr = data.traj
     est = result.estimation
@@ -84,8 +87,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         )
     out = writable_file(args.out, "--out") if args.out else None
 
-    from ..experiments.sweep import build_model
-    from ..logs import evaluate_log, model_for_mapping, read_log
+    from ..experiments.sweep._inputs import build_model
+    from ..logs import evaluate_log, read_log
+    from ..logs._mapping import model_for_mapping
 
     with option("--vehicle"):
         model = build_model(args.vehicle)
@@ -148,8 +152,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     """Add the ``evaluate`` command to the subparsers ``sub``."""
-    from ..errors import ERROR_NORMS
-    from ..logs import GAP_POLICIES, TIME_TOLERANCE
+    from .._local_errors import ERROR_NORMS
+    from ..logs._read import TIME_TOLERANCE
+    from ..logs._time import GAP_POLICIES
 
     ev = sub.add_parser(
         "evaluate",

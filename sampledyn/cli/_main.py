@@ -166,6 +166,17 @@ def compile_notice(command: str, stream: Any) -> Callable[[], None]:
     return lambda: event.unregister("numba:compile", listener)
 
 
+def _options(parser: argparse.ArgumentParser, command: str) -> dict[str, str]:
+    """The options of ``command``: dest -> its long flag (for naming them in errors)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            sub = action.choices[command]
+            return {a.dest: flags[0] for a in sub._actions
+                    for flags in [[f for f in a.option_strings if f.startswith("--")]]
+                    if flags and a.dest != "help"}  # fmt: skip
+    return {}
+
+
 def _fail(status: int, text: str, debug: bool) -> NoReturn:
     if debug:
         traceback.print_exc()
@@ -206,7 +217,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         note = getattr(args, "on_interrupt", None)
         _fail(status, f"{kind}" + (f"; {note}" if note else ""), debug)
     except Exception as exc:
-        status, text = classify(exc)
+        status, text = classify(exc, _options(parser, args.command))
         _fail(status, text, debug)
     finally:
         if stop_notice is not None:

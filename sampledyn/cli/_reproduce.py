@@ -14,6 +14,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from .. import _checks as checks
 from ._common import floats, ints, names, option, progress, refuse, writable_dir, writable_file
 
 __all__ = ["add_parser"]
@@ -87,15 +88,15 @@ def _engine(args: argparse.Namespace, default_workers: int | None) -> dict[str, 
     """The engine options of a reproduce run (store, workers, Dask), checked now."""
     if args.workers is not None and args.scheduler is not None:
         refuse("give --workers or --scheduler, not both.")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"`--workers` must be >= 1, got {args.workers}.")
+    if args.workers is not None:
+        checks.count(args.workers, "workers")
     out: dict[str, Any] = {"store": args.store}
     if args.scheduler is not None:
         out["scheduler"] = args.scheduler
     else:
         out["workers"] = default_workers if args.workers is None else args.workers
     if args.store is not None:
-        from ..experiments.sweep import inspect_store
+        from ..experiments.sweep._store import inspect_store
 
         with option("--store"):
             writable_file(args.store, "--store")

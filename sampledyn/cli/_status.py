@@ -9,10 +9,11 @@ below, also in ``sampledyn --help`` and ``docs/cli.md``). ``--debug`` or
 from __future__ import annotations
 
 import errno
+import re
 import signal
 from typing import Any
 
-from .._trajectory import NumericalError
+from ..exceptions import ArgumentError, NumericalError, UsageError
 
 __all__ = [
     "EXIT_BAD_VALUE",
@@ -26,9 +27,9 @@ __all__ = [
     "EXIT_STATUSES",
     "EXIT_TERMINATED",
     "EXIT_UNAVAILABLE",
+    "ARGUMENT_OPTIONS",
     "EXIT_USAGE",
     "Terminated",
-    "UsageError",
     "classify",
     "status_table",
 ]
@@ -64,11 +65,6 @@ EXIT_STATUSES: dict[int, str] = {
 }
 
 
-class UsageError(Exception):
-    """An option that does not apply, or a combination of options that does not
-    make sense (exit status 2)."""
-
-
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C."""
 
@@ -100,11 +96,37 @@ def _sqlite_status(exc: Exception) -> int:
     return EXIT_BAD_VALUE
 
 
-def classify(exc: BaseException) -> tuple[int, str]:
+#: Library argument -> the option (its ``dest``) that gives it, where the names differ.
+ARGUMENT_OPTIONS: dict[str, str] = {"base_seed": "seed"}
+
+
+def _mentions(text: str, flag: str) -> bool:
+    """``text`` names option ``flag`` (``--h`` is not named by ``--hold-gains``)."""
+    return re.search(rf"{re.escape(flag)}(?![\w-])", text) is not None
+
+
+def _with_options(text: str, argument: str, options: dict[str, str]) -> str:
+    """``text`` with the option that gave ``argument`` in front (``--h: ...``), and the
+    option of any other argument it names in backticks after that name (unless the
+    text names the option already)."""
+    for dest, flag in options.items():
+        named = f"`{dest}`"
+        if dest != argument and named in text and not _mentions(text, flag):
+            text = text.replace(named, f"{named} ({flag})", 1)
+    own = options.get(ARGUMENT_OPTIONS.get(argument, argument))
+    return text if own is None or _mentions(text, own) else f"{own}: {text}"
+
+
+def classify(exc: BaseException, options: dict[str, str] | None = None) -> tuple[int, str]:
     """The exit status and the one-line message of ``exc``.
 
-    An option name attached as ``exc.sampledyn_option`` (see ``_common.option``)
-    prefixes the message.
+    The one place where library errors meet options: an
+    :class:`~sampledyn.exceptions.ArgumentError` names its ``argument``, and when the
+    command has an option for it (``options``: dest -> flag, with
+    :data:`ARGUMENT_OPTIONS` for names that differ) the message starts with the option
+    (``--h: sampling period `h` must be ...``).
+    An option name attached to a file error as ``exc.sampledyn_option`` (see
+    ``_common.option``) prefixes the message.
     """
     import sqlite3
 
@@ -132,4 +154,6 @@ def classify(exc: BaseException) -> tuple[int, str]:
     option: Any = getattr(exc, "sampledyn_option", None)
     if option and not text.startswith(option):
         text = f"{option} {text}" if status == EXIT_FILE else f"{option}: {text}"
+    elif isinstance(exc, ArgumentError) and options:
+        text = _with_options(text, exc.argument, options)
     return status, " ".join(text.split())

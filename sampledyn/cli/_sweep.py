@@ -80,7 +80,7 @@ def _table_columns(df: Any) -> list[str]:
     """The main columns of the cells table: the grid and the errors, the vehicle if
     the store holds several, and the named results of the controller studies
     (columns that are empty in every row are left out)."""
-    from ..experiments.sweep import CELL_COLUMNS
+    from ..experiments.sweep._store import CELL_COLUMNS
 
     stored = {name for name, _type in CELL_COLUMNS}
     cols = ["vehicle"] if df["vehicle"].nunique() > 1 else []
@@ -96,7 +96,7 @@ def _cmd_results(args: argparse.Namespace) -> int:
         refuse("`--format parquet` needs `--out FILE`.")
     out = writable_file(args.out, "--out") if args.out else None
 
-    from ..experiments.sweep import load_results as load
+    from ..experiments.sweep._store import load_results as load
 
     with option("STORE"):
         df = load(args.store, args.table, kind=args.kind)

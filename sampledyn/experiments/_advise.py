@@ -25,34 +25,35 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
+from .. import _checks as checks
+from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
-from ..models import ClosedLoop, Vehicle
-from ..noise import noise_amplitudes
+from ..models import ClosedLoop, Model, Vehicle
 from ..sensitivity import (
-    RANK_BY,
     Domain,
-    ErrorCurves,
-    JacobianReport,
-    check_tolerance,
-    check_vehicle,
-    domain_maxima,
     error_curves,
-    exact_reference,
     first_order_gain,
     gentle_input,
-    h_grid,
     largest_h,
-    period_ratio,
+    state_blocks,
+)
+from ..sensitivity._bound import domain_maxima, exact_reference, period_ratio
+from ..sensitivity._curves import (
+    RANK_BY,
+    ErrorCurves,
+    check_tolerance,
+    h_grid,
     rank_key,
     samples_needed,
-    state_blocks,
-    supported_method,
     usable_periods,
 )
+from ..sensitivity._domain import check_vehicle
+from ..sensitivity._gains import supported_method
+from ..sensitivity._jacobians import JacobianReport
 from ._bounds import measure_noisy, pooled
 from .sweep import exact_samples
 
@@ -228,7 +229,7 @@ class Advice:
         return "\n".join(lines)
 
 
-def default_input(model: Any) -> Any:
+def default_input(model: Model) -> Any:
     """The default reference input of ``advise``: the Fig. 6 thruster pattern at 20 %
     (:func:`sampledyn.sensitivity.gentle_input`) of a vehicle (or of the vehicle in a
     closed loop).
@@ -255,7 +256,7 @@ def default_input(model: Any) -> Any:
 
 
 def _curves(
-    model: Any,
+    model: Model,
     ms: list[Any],
     base: Trajectory,
     ks: list[int],
@@ -304,7 +305,7 @@ def _curves(
 
 
 def _checked_arguments(
-    model: Any, h: Any, methods: Any, rank_by: Any, seeds: Any, base_seed: Any, workers: Any
+    model: Model, h: Any, methods: Any, rank_by: Any, seeds: Any, base_seed: Any, workers: Any
 ) -> list[Any]:
     """The methods of :func:`advise`, its other arguments checked (named)."""
     if isinstance(model, Vehicle):
@@ -313,27 +314,20 @@ def _checked_arguments(
         state_blocks(model.state_units, "model")
     if rank_by not in RANK_BY:
         raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
-    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"`seeds` must be an int >= 1, got {seeds!r}.")
-    if isinstance(base_seed, bool) or not isinstance(base_seed, int) or base_seed < 0:
-        raise ValueError(f"`base_seed` (--seed) must be an int >= 0, got {base_seed!r}.")
+    checks.period(h)
+    checks.count(seeds, "seeds")
+    checks.count(base_seed, "base_seed", least=0)
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):  # fmt: skip
-        raise ValueError(f"`workers` must be an int >= 1 (or None: this process), got {workers!r}.")
+    if workers is not None:
+        checks.count(workers, "workers")
     return ms
 
 
 def _check_run_length(ms: list[Any], h: float, T: Any) -> None:
     """The reference run of :func:`advise` is long enough for every rule's history."""
-    if not (isinstance(T, int | float) and math.isfinite(T) and T > 0):
-        raise ValueError(
-            f"reference run length `T` must be a finite number of seconds > 0, got {T!r}."
-        )
+    checks.positive(T, "T", what="reference run length", unit="s")
     longest = max(ms, key=lambda m: m.history)
     t_min = (samples_needed(ms) - 1) * h
     if T < t_min:
@@ -345,7 +339,7 @@ def _check_run_length(ms: list[Any], h: float, T: Any) -> None:
 
 
 def _reference_run(
-    model: Any, signal: Any, reference: Any, h: float, T: float, x0: Any, h_max: Any
+    model: Model, signal: Any, reference: Any, h: float, T: float, x0: Any, h_max: Any
 ) -> tuple[Trajectory, Any]:
     """The exact samples the curves are computed on (simulated, or the reference
     given) and the multiples k of their period that the curves visit."""
@@ -361,7 +355,7 @@ def _reference_run(
 
 
 def advise(
-    model: Any,
+    model: Model,
     h: float,
     eta_pct: float,
     v_pct: float,
@@ -448,14 +442,14 @@ def advise(
     jac = None
     notes: list[str] = []
     if vehicle:
-        domain, jac, _ = domain_maxima(model, base, signal, domain, amp, samples)
+        domain, jac, _ = domain_maxima(cast(Vehicle, model), base, signal, domain, amp, samples)
     else:
         notes.append(f"bound, h_max_g: {NO_BOUND}.")
     curves = _curves(
         model, ms, base, usable_periods(ms, base, ks), eta_pct, v_pct, domain, signal, samples
     )
     at = int(np.argmin(np.abs(curves.h - h)))
-    if abs(curves.h[at] - h) > 1e-9 * h:
+    if not checks.same_period(h, float(curves.h[at])):
         raise ValueError(f"the reference run is too short for h = {h} s; raise `T`.")
 
     measured: dict[str, tuple[float, float, float, float]] = {}

@@ -12,9 +12,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from .. import _checks as checks
+from ..exceptions import ArgumentError
 from ._studies import StudyDefinition
+
+if TYPE_CHECKING:
+    from ..models import Model
 
 __all__ = [
     "FIG2",
@@ -90,7 +95,7 @@ class AUVStudy:
     seed : int
         Seed of the multilevel input.
     norm : str
-        The norm of the first panel and table (:data:`sampledyn.errors.ERROR_NORMS`).
+        The norm of the first panel and table (:data:`sampledyn._local_errors.ERROR_NORMS`).
     low, high : float
         Range of the input levels.
     x0 : tuple of float
@@ -109,18 +114,14 @@ class AUVStudy:
     low: float = -10.0
     high: float = 10.0
     x0: tuple[float, float] = (1.0, 0.0)
-    model: Any = field(default_factory=_auv_like)
+    model: Model = field(default_factory=_auv_like)
 
     def __post_init__(self) -> None:
-        from ..errors import ERROR_NORMS
+        from .._local_errors import ERROR_NORMS
 
         for r in self.ratios:
-            if isinstance(r, bool) or not isinstance(r, int) or r < 1:
-                raise ValueError(f"`ratios` must be positive integers, got {r!r}.")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(
-                f"`seed` (--seed) of the multilevel input must be an int >= 0, got {self.seed!r}."
-            )
+            checks.count(r, "ratios", types=ArgumentError)
+        checks.count(self.seed, "seed", what="the multilevel input's", least=0)
         if self.norm not in ERROR_NORMS:
             raise ValueError(f"`norm` must be one of {', '.join(ERROR_NORMS)}, got {self.norm!r}.")
 
@@ -128,8 +129,8 @@ class AUVStudy:
 def auv_config(study: AUVStudy) -> Any:
     """The study as a grid of the engine (a checked
     :class:`~sampledyn.experiments.sweep.SweepConfig`): one multilevel input per h_u/h,
-    no noise, the norms of :data:`sampledyn.errors.ERROR_NORMS` and the two masked rms."""
-    from ..errors import ERROR_NORMS
+    no noise, the norms of :data:`sampledyn._local_errors.ERROR_NORMS` and the two masked rms."""
+    from .._local_errors import ERROR_NORMS
     from .sweep import SweepConfig
 
     inputs = tuple(
@@ -229,7 +230,7 @@ def run_auv_study(
     Returns
     -------
     list of dict, one per (hold ratio, method), with keys ``hold_ratio``, ``method``,
-    ``order``, the norms of :data:`sampledyn.errors.ERROR_NORMS` (over both states,
+    ``order``, the norms of :data:`sampledyn._local_errors.ERROR_NORMS` (over both states,
     t >= after), ``rms_away_from_jumps`` (rms over the samples whose prediction
     history holds no input jump; NaN when h_u/h is too short to have any),
     ``rms_smooth`` (same, also away from zero crossings of the model's kink states), ``h``,

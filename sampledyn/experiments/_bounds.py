@@ -18,25 +18,23 @@ from typing import Any
 
 import numpy as np
 
+from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
-from ..noise import noise_amplitudes
-from ..sensitivity import (
-    Domain,
+from ..models import Model, Vehicle
+from ..sensitivity import Domain, gentle_input, path_prediction, scaled_inertia
+from ..sensitivity._bound import (
     ErrorBound,
     assemble_bound,
-    check_vehicle,
     domain_maxima,
-    gentle_input,
     jacobian_pair,
-    path_prediction,
-    pitch_guard,
     reference_at,
-    scaled_inertia,
-    supported_method,
     truncation_errors,
     truncation_estimate,
 )
-from .sweep import SweepConfig, exact_samples, run_study
+from ..sensitivity._domain import check_vehicle, pitch_guard
+from ..sensitivity._gains import supported_method
+from .sweep import SweepConfig, exact_samples
+from .sweep._run import run_study
 
 __all__ = [
     "InertiaSensitivity",
@@ -49,7 +47,7 @@ __all__ = [
 
 
 def reference_samples(
-    model: Any,
+    model: Model,
     h: float,
     signal: Any = None,
     reference: Trajectory | None = None,
@@ -69,7 +67,7 @@ def reference_samples(
 
 
 def measure_noisy(
-    model: Any,
+    model: Model,
     methods: Sequence[str],
     clean: Trajectory,
     signal: Any,
@@ -184,7 +182,7 @@ class MonteCarloRow:
 
 
 def monte_carlo_check(
-    model: Any,
+    model: Vehicle,
     methods: Sequence[Any],
     h: float,
     noise_levels: Sequence[tuple[float, float]],

@@ -5,7 +5,7 @@ fully actuated layout, so the LQR holds roll and pitch itself and no attitude ho
 needed), each sampled-data rule and each sampling period, the same discrete LQR is
 designed on the rule's discrete-time model (:func:`sampledyn.discretize`) linearised at
 the trim for a depth / heading / surge hold, and run against the exact plant
-(:func:`sampledyn.discretize.run_loop`: input held between samples, thrusters
+(:func:`sampledyn.run_loop`: input held between samples, thrusters
 saturating at n_max inside the plant) with the paper's measurement noise. Measured:
 the tracking residual set (95th and 100th percentile of |depth|, |heading| and |surge|
 error after the transient) and the control effort. A design on the exact zero-order
@@ -43,19 +43,15 @@ from typing import Any
 
 import numpy as np
 
-from ..discretize import LinearLaw, check_rule, discretize, run_loop
+from .._discretize import LinearLaw, discretize, run_loop
+from .._discretize._model import check_rule
+from ..exceptions import SweepConfigError
 from ..methods import get_method
+from ..models import Model
 from ._studies import StudyDefinition
-from .sweep import (
-    CELL_ERRORS,
-    CellKind,
-    ChunkResult,
-    SimResult,
-    SweepConfig,
-    SweepConfigError,
-    warning_text,
-    worker_name,
-)
+from .sweep import CellKind, SweepConfig
+from .sweep._cells import warning_text, worker_name
+from .sweep._compute import CELL_ERRORS, ChunkResult, SimResult
 
 __all__ = [
     "CLOSED_LOOP",
@@ -372,7 +368,7 @@ class ClosedLoopCells(CellKind):
     Shared: the trim (once per study, on the client), and per h the LQR design on
     every rule and each rule's one-step error on the ZOH loop's motion (once per h,
     on one worker). A cell: one (rule, noise pair, seed) run of its design on the
-    exact plant (:func:`sampledyn.discretize.run_loop`), measured as the residual set
+    exact plant (:func:`sampledyn.run_loop`), measured as the residual set
     after the transient (``after``) and the effort; a diverged run is a result
     (``outcome`` "diverged: ..."), not a failed cell.
 
@@ -419,7 +415,7 @@ class ClosedLoopCells(CellKind):
     def measures(self, config: Any) -> tuple[str, ...]:
         return ("tracking",)
 
-    def setup_data(self, config: Any, model: Any) -> dict[str, Any]:
+    def setup_data(self, config: Any, model: Model) -> dict[str, Any]:
         sp, off = config.options["setpoint"], config.options["offset"]
         x_trim, u_trim = trim(model, sp["surge"], sp["depth"], sp["heading"])
         x0 = x_trim.copy()

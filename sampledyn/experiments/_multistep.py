@@ -4,7 +4,7 @@ noisy data (what an MPC horizon sees, not only one step).
 Data: the RexROV, open loop, under the paper's Fig. 6 thruster rpm (+1 % buoyancy),
 exact samples (:func:`sampledyn.simulate`) with the paper's uniform measurement noise.
 For each rule, h and noise level: the k-step-ahead predictions of
-:meth:`~sampledyn.discretize.DiscreteModel.rollout` (z from the noisy data at n - k,
+:meth:`~sampledyn.DiscreteModel.rollout` (z from the noisy data at n - k,
 stepped k times with the applied inputs) against the exact samples, k = 1..K; and a
 free run of the discrete model from the noisy data at the start of the window over the
 whole window. Errors: rms over the window of the Euclidean norm of the position/angle
@@ -32,20 +32,16 @@ from typing import Any
 
 import numpy as np
 
-from ..discretize import check_rule, discretize
-from ..noise import add_noise
+from .._discretize import discretize
+from .._discretize._model import check_rule
+from .._noise import add_noise
+from ..exceptions import SweepConfigError
 from ._closed_loop import study_order
 from ._studies import StudyDefinition
-from .sweep import (
-    CELL_ERRORS,
-    ChunkResult,
-    PredictionCells,
-    SimResult,
-    SweepConfig,
-    SweepConfigError,
-    warning_text,
-    worker_name,
-)
+from .sweep import SweepConfig
+from .sweep._cells import warning_text, worker_name
+from .sweep._compute import CELL_ERRORS, ChunkResult, SimResult
+from .sweep._prediction import PredictionCells
 
 __all__ = [
     "MULTISTEP",
@@ -98,7 +94,7 @@ class MultistepCells(PredictionCells):
 
     Shared per h: the exact samples of the model under the input (as a prediction
     study, but every h simulated on its own). A cell: one rule's k-step-ahead
-    predictions (:meth:`~sampledyn.discretize.DiscreteModel.rollout`, z from the noisy
+    predictions (:meth:`~sampledyn.DiscreteModel.rollout`, z from the noisy
     data at n - k, k steps with the applied inputs) against the exact samples on
     t >= after, for one noise pair and seed, or its free run over that window from
     the noisy state at its start (measure "free run"). ``err_eta`` and ``err_v`` are

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from ..exceptions import ArgumentError
 from ._studies import StudyDefinition
 
 __all__ = [
@@ -127,14 +128,16 @@ class ROVStudy:
             len(gains) != 2 or not all(isinstance(g, int | float) and math.isfinite(g) and g > 0
                                        for g in gains)
         ):  # fmt: skip
-            raise ValueError(
-                "`hold_gains` (--hold-gains) must be two numbers > 0, KP (N m/rad) and KD "
-                f"(N m s/rad), e.g. 16000,7200; got {','.join(f'{g:g}' for g in gains)}."
+            raise ArgumentError(
+                "hold_gains",
+                "`hold_gains` must be two numbers > 0, KP (N m/rad) and KD (N m s/rad), e.g. "
+                f"16000,7200; got {','.join(f'{g:g}' for g in gains)}.",
             )
         if gains is not None and self.attitude_hold is False:
-            raise ValueError(
-                "`hold_gains` (--hold-gains) are gains of the attitude hold, which "
-                "attitude_hold=False (--no-attitude-hold) switches off; give one or the other."
+            raise ArgumentError(
+                "hold_gains",
+                "`hold_gains` are gains of the attitude hold, and `attitude_hold` switches it "
+                "off; give one or the other.",
             )
         if self.norm not in FIG7_NORMS:
             raise ValueError(
@@ -151,7 +154,7 @@ class ROVStudy:
         SweepConfigError
             naming a bad setting (a ``ValueError``).
         """
-        from ..models import is_model_file
+        from ..models._names import is_model_file
         from .sweep import load_config
 
         vehicle = self.vehicle
@@ -178,10 +181,10 @@ class ROVStudy:
         if self.attitude_hold is None and not gains:
             return config
         if self.attitude_hold is None and not held:
-            raise ValueError(
-                f"`hold_gains` (--hold-gains) are gains of the attitude hold, which "
-                f"{config.vehicle!r} does not use by default; switch it on "
-                "(attitude_hold=True, --attitude-hold)."
+            raise ArgumentError(
+                "hold_gains",
+                f"`hold_gains` are gains of the attitude hold, which {config.vehicle!r} does "
+                "not use by default; switch `attitude_hold` on.",
             )
         if held:
             return replace(config, feedback={**config.feedback, **gains})
@@ -190,8 +193,8 @@ class ROVStudy:
 
 def _columns(norm: str, norms: tuple[str, ...]) -> list[tuple[str, str]]:
     """(column, block) pairs a cell of ``norm`` fills (the norm read by the engine's
-    one parser, :func:`~sampledyn.experiments.sweep.parse_norm`)."""
-    from .sweep import parse_norm
+    one parser, :func:`~sampledyn.experiments.sweep._norms.parse_norm`)."""
+    from .sweep._norms import parse_norm
 
     spec = parse_norm(norm)
     if spec.kind not in norms or spec.part != "disturbed" or spec.mask is not None:

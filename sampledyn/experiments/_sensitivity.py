@@ -14,20 +14,19 @@ from typing import Any
 
 import numpy as np
 
-from ..noise import noise_amplitudes
+from .._noise import noise_amplitudes
 from ..sensitivity import (
     Domain,
-    ErrorCurves,
-    PitchSensitivity,
-    attitude_jacobian,
     gentle_input,
     jacobian_bounds,
     path_prediction,
-    pitch_guard,
     pitch_input,
     pitch_sensitivity,
-    spectral_norm,
 )
+from ..sensitivity._curves import ErrorCurves
+from ..sensitivity._domain import pitch_guard
+from ..sensitivity._jacobians import attitude_jacobian, spectral_norm
+from ..sensitivity._sweeps import PitchSensitivity
 from ._advise import advise
 from ._bounds import (
     InertiaSensitivity,

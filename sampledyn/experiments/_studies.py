@@ -32,7 +32,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import ERROR_NORMS
+from .._local_errors import ERROR_NORMS
 
 __all__ = [
     "SHARED",
@@ -216,7 +216,7 @@ class StudyDefinition:
         say : callable, optional
             Called with one line per engine run (what it computed, found stored).
         """
-        from .sweep import backend_options, run_study
+        from .sweep._run import backend_options, run_study
 
         options = backend_options(workers, scheduler, progress)
         results = []

@@ -38,7 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from ._units import LogFormatError
+from ..exceptions import LogFormatError
+from ..models import Vehicle
 
 __all__ = [
     "FRAMES",
@@ -169,7 +170,7 @@ def motor_channels(params: Mapping[str, float], n_motors: int, src: str) -> list
     return [found[k] for k in range(1, n_motors + 1)]
 
 
-def motor_signs(model: Any, factors: np.ndarray, src: str) -> np.ndarray:
+def motor_signs(model: Vehicle, factors: np.ndarray, src: str) -> np.ndarray:
     """+1 or -1 per motor: whether a positive output of ArduSub motor k pushes along
     the vehicle file's thruster k (a positive rpm). A positive output pushes along
     (forward, lateral, -throttle, roll, pitch, yaw) of its factors (throttle is up,

@@ -42,11 +42,12 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
+from ..models import Model
 from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
 from ._streams import mapping_section, nearest
-from ._units import LogFormatError
 
 __all__ = ["read_dataflash"]
 
@@ -172,7 +173,7 @@ def _events(msgs: _Messages) -> tuple[Any, bool | None]:
     return (a[:, 0], a[:, 1]), not bool(a[0, 1])
 
 
-def read_dataflash(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+def read_dataflash(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
     """Read an ArduSub DataFlash log of a vehicle through a mapping file (module
     docstring); ``options`` as :func:`read_log`. Returns :class:`LogData`; the notes
     say where each quantity came from, what was left out and why."""

@@ -25,10 +25,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
+from ..exceptions import LogFormatError
+from ..models import Model, Vehicle
 from ._ardupilot import FRAMES, MODES, estimator_note, frame_of, motor_channels, motor_signs
 from ._read import LogData, log_from_frame
 from ._streams import (
@@ -41,7 +43,6 @@ from ._streams import (
     thruster_rpm,
     vehicle_frame,
 )
-from ._units import LogFormatError
 
 __all__ = ["AUTOPILOT_KEYS", "AutopilotStreams", "autopilot_log", "check_thrusters"]
 
@@ -140,7 +141,7 @@ def _estimator(s: AutopilotStreams, cfg: Mapping[str, Any]) -> tuple[list[str], 
 
 
 def _motors(
-    s: AutopilotStreams, model: Any, thr: Mapping[str, Any], direction: np.ndarray | None
+    s: AutopilotStreams, model: Model, thr: Mapping[str, Any], direction: np.ndarray | None
 ) -> tuple[list[int], np.ndarray, list[str]]:
     """Output channel and sign per model input, and the notes saying where from."""
     n_out = s.outputs[1].shape[1]
@@ -159,7 +160,7 @@ def _motors(
     reverse = np.array(
         [float(s.params.get(f"MOT_{k}_DIRECTION", 1.0)) for k in range(1, model.nu + 1)]
     )
-    geometric = motor_signs(model, FRAMES[code][1], s.src)
+    geometric = motor_signs(cast(Vehicle, model), FRAMES[code][1], s.src)  # 6-DoF: checked
     signs = geometric * reverse if direction is None else direction
     where = "the mapping file" if "frame" in thr else "the log's parameters"
     unused = [c for c in range(1, n_out + 1) if c not in channels]
@@ -207,7 +208,11 @@ def check_thrusters(thr: Mapping[str, Any], nu: int) -> None:
 
 
 def autopilot_log(
-    s: AutopilotStreams, model: Any, cfg: Mapping[str, Any], thr: Mapping[str, Any], **options: Any
+    s: AutopilotStreams,
+    model: Model,
+    cfg: Mapping[str, Any],
+    thr: Mapping[str, Any],
+    **options: Any,
 ) -> LogData:
     """The validated log of ``model`` from an ArduSub log's streams (module docstring);
     ``cfg`` is the mapping's section, ``thr`` its thruster table; ``options`` as

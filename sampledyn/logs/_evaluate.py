@@ -10,16 +10,18 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import error_norm, error_window, local_errors
-from ..estimate import EstimationResult
-from ..methods import Estimator, fixed_step, get_method, get_predictor, stencil_steps
-from ..models import JacobianUnavailableError
-from ..noise import NOISE_REFERENCE
-from ..predict import predict
+from .._estimate import EstimationResult
+from .._local_errors import error_norm, error_window, local_errors
+from .._noise import NOISE_REFERENCE
+from .._predict import predict
+from ..exceptions import JacobianUnavailableError, LogFormatError
+from ..methods import Estimator, get_method, get_predictor, stencil_steps
+from ..methods._base import fixed_step
+from ..models import Model
 from ..sensitivity import fastest_time_constant
 from ._read import LogData
 from ._time import TIME_UNITS
-from ._units import LogFormatError, split_header
+from ._units import split_header
 
 __all__ = ["MAX_H_RATE", "MIN_H_S", "LogEvaluation", "evaluate_log"]
 
@@ -197,7 +199,7 @@ def _unit_hint(
     )
 
 
-def _check_period(model: Any, data: LogData, limit: float) -> tuple[str, ...]:
+def _check_period(model: Model, data: LogData, limit: float) -> tuple[str, ...]:
     """Refuse a sampling period far beyond the model's fastest rate on the logged
     states (:data:`MAX_H_RATE`) or below :data:`MIN_H_S`; else a note with h / tau."""
     h = data.traj.h
@@ -251,7 +253,7 @@ def _rows_text(rows: np.ndarray) -> str:
     return f"data row{'s' if rows.size > 1 else ''} {shown}"
 
 
-def _limits(model: Any, data: LogData) -> tuple[np.ndarray, np.ndarray] | None:
+def _limits(model: Model, data: LogData) -> tuple[np.ndarray, np.ndarray] | None:
     """The model's input limits: ``input_limits()`` where it has one, else +-n_max on
     its rpm inputs; None if it has neither."""
     if hasattr(model, "input_limits"):
@@ -265,7 +267,7 @@ def _limits(model: Any, data: LogData) -> tuple[np.ndarray, np.ndarray] | None:
     return -hi, hi
 
 
-def _warn_inputs_beyond_limits(model: Any, data: LogData) -> None:
+def _warn_inputs_beyond_limits(model: Model, data: LogData) -> None:
     """Warn, naming the rows, where logged inputs leave the model's limits, e.g.
     thruster rpm beyond the vehicle's n_max (issue 13 item 6): the model saturates or
     extrapolates there, and a unit mistake shows up here first."""
@@ -295,7 +297,7 @@ def _warn_inputs_beyond_limits(model: Any, data: LogData) -> None:
 
 
 def evaluate_log(
-    model: Any,
+    model: Model,
     data: LogData,
     methods: Sequence[str],
     *,
@@ -346,7 +348,7 @@ def evaluate_log(
     bridged gap each uses the actual steps (``variable_step`` rules: Adams weights of
     the actual nodes, a step h_n per interval for RK_s and T); on a uniform grid
     their fixed coefficients. Which one is in ``LogEvaluation.notes``. The norms
-    weight the samples by their steps on non-uniform time (:mod:`sampledyn.errors`).
+    weight the samples by their steps on non-uniform time (:mod:`sampledyn._local_errors`).
     """
     if not methods:
         raise ValueError("`methods` must name at least one method, e.g. ['E', 'AB2'].")

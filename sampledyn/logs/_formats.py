@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ._units import LogFormatError
+from ..exceptions import LogFormatError
+from ..models import Model
 
 __all__ = ["LOG_FORMATS", "LogFormat", "detect_format"]
 
@@ -49,7 +50,9 @@ class LogFormat:
     reader: str
     extra: str | None = None
 
-    def read(self, path: Path, model: Any, **kwargs: Any) -> Any:
+    def read(self, path: Path, model: Model, **kwargs: Any) -> Any:
+        """The log at ``path`` read by this format's reader for ``model`` (``kwargs``:
+        the reader's options, as :func:`sampledyn.logs.read_log` takes them)."""
         module, function = self.reader.split(":")
         return getattr(importlib.import_module(module, __package__), function)(
             path, model, **kwargs

@@ -7,9 +7,12 @@ import difflib
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ._units import LogFormatError
+from ..exceptions import LogFormatError
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = ["check_keys", "load_toml", "model_for_mapping", "table_mapping"]
 
@@ -121,7 +124,7 @@ def table_mapping(
     return out
 
 
-def model_for_mapping(model: Any, mapping: Any) -> Any:
+def model_for_mapping(model: Model, mapping: Any) -> Any:
     """``model`` with the commanded wrench as its input (``wrench_input=True``) when
     the mapping file gives wrench inputs (``[ros.wrench]``, or ``inputs = "wrench"``
     beside a table's ``[columns]``), else ``model`` itself.
@@ -137,7 +140,9 @@ def model_for_mapping(model: Any, mapping: Any) -> Any:
     wrench = raw.get("inputs") == "wrench" or (isinstance(ros, Mapping) and "wrench" in ros)
     if not wrench or getattr(model, "wrench_input", False):
         return model
-    if not hasattr(model, "wrench_input"):
+    from ..models import Vehicle
+
+    if not isinstance(model, Vehicle):
         raise LogFormatError(
             "mapping",
             "mapping file: gives the commanded wrench as the input, but the model is no "

@@ -42,11 +42,12 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
+from ..models import Model
 from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
 from ._streams import mapping_section, nearest
-from ._units import LogFormatError
 
 __all__ = ["read_blueos", "read_tlog"]
 
@@ -240,7 +241,7 @@ def _battery(
 
 
 def _streams(
-    records: Iterable[Record], model: Any, cfg: dict[str, Any], src: str, kind: str
+    records: Iterable[Record], model: Model, cfg: dict[str, Any], src: str, kind: str
 ) -> AutopilotStreams:
     records = list(records)
     who = _autopilot_id(records, cfg, src)
@@ -312,7 +313,7 @@ def _streams(
     )
 
 
-def read_tlog(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+def read_tlog(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
     """Read a MAVLink telemetry log (``.tlog``) of an ArduSub vehicle through a mapping
     file (module docstring); ``options`` as :func:`read_log`."""
     path = Path(path)
@@ -324,7 +325,7 @@ def read_tlog(path: Path, model: Any, *, mapping: Any = None, **options: Any) ->
     return autopilot_log(s, model, cfg, thr, **options)
 
 
-def read_blueos(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+def read_blueos(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
     """Read a BlueOS MCAP log (MAVLink JSON on ``mavlink/out``) of an ArduSub vehicle
     through a mapping file (module docstring); ``options`` as :func:`read_log`."""
     path = Path(path)

@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from ..models import Model
 from ._formats import detect_format
 from ._read import TIME_TOLERANCE, LogData
 
@@ -15,7 +16,7 @@ __all__ = ["read_log"]
 
 def read_log(
     path: str | os.PathLike[str],
-    model: Any,
+    model: Model,
     *,
     mapping: Any = None,
     nan: str = "error",

@@ -41,14 +41,18 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..exceptions import LogFormatError
 from ._mapping import load_toml, table_mapping
 from ._time import Sampling, check_policy, read_clock, sampling
-from ._units import LogFormatError, conversion_factor, split_header
+from ._units import conversion_factor, split_header
+
+if TYPE_CHECKING:  # the command line imports this module before the kernels
+    from ..models import Model
 
 __all__ = [
     "NAN_POLICIES",
@@ -127,7 +131,7 @@ def _row(i: int, csv: bool) -> str:
     return f"data row {i + 1}" + (f" (line {i + 2})" if csv else "")
 
 
-def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
+def _aliases(model: Model) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
     states: list[tuple[str, ...]] = [(str(n),) for n in model.state_names]
     inputs: list[tuple[str, ...]] = []
     for i, (n, unit) in enumerate(zip(model.input_names, model.input_units, strict=True)):
@@ -137,7 +141,7 @@ def _aliases(model: Any) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
 
 
 def _columns(
-    columns: list[Any], model: Any, mapping: Any, src: str
+    columns: list[Any], model: Model, mapping: Any, src: str
 ) -> tuple[dict[str, tuple[str, str | None]], list[str]]:
     """Model quantity -> (log column, unit) for t, every state and every input; and
     the log's columns named like a numbered input the model does not have (n7 on a
@@ -215,7 +219,7 @@ def _stray_inputs(
     ]
 
 
-def _count_inputs(model: Any) -> str:
+def _count_inputs(model: Model) -> str:
     """'vehicle bluerov2_heavy has 6 thrusters (inputs n_r1..n_r6)' or the like."""
     names = list(model.input_names)
     listed = f"{names[0]}..{names[-1]}" if len(names) > 2 else ", ".join(names)
@@ -226,7 +230,7 @@ def _count_inputs(model: Any) -> str:
     return f"{who} has {len(names)} input{'s' if len(names) != 1 else ''} ({listed})"
 
 
-def _check_stray_inputs(frame: Any, stray: list[str], model: Any, src: str) -> list[str]:
+def _check_stray_inputs(frame: Any, stray: list[str], model: Model, src: str) -> list[str]:
     """Refuse input columns the model has no input for, unless they are 0 throughout
     (thrusters of a bigger vehicle that were off: leaving them out loses nothing);
     then say so in the notes."""
@@ -294,7 +298,7 @@ def _nan_policy(
 
 
 def _check_angles(
-    x: np.ndarray, model: Any, cols: dict[str, tuple[str, str | None]], src: str
+    x: np.ndarray, model: Model, cols: dict[str, tuple[str, str | None]], src: str
 ) -> None:
     for k, (name, unit) in enumerate(zip(model.state_names, model.state_units, strict=True)):
         if unit != "rad":
@@ -316,7 +320,7 @@ def _check_angles(
             )
 
 
-def _unwrap_angles(data: np.ndarray, model: Any) -> list[str]:
+def _unwrap_angles(data: np.ndarray, model: Model) -> list[str]:
     """Unwrap the angle columns of ``data`` in place (NaN rows skipped); notes."""
     notes = []
     for k, unit in enumerate(model.state_units):
@@ -331,7 +335,7 @@ def _unwrap_angles(data: np.ndarray, model: Any) -> list[str]:
 
 def log_from_frame(
     frame: Any,
-    model: Any,
+    model: Model,
     *,
     source: str = "<frame>",
     mapping: Any = None,
@@ -464,7 +468,7 @@ def _refuse_repeated_columns(path: Path) -> None:
         )
 
 
-def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
+def read_table(path: Path, model: Model, mapping: Any) -> tuple[Any, bool]:
     """A CSV or Parquet file as a DataFrame; a CSV's time column is read as text, so
     that decimal stamps (1700000000.123456789) are read exactly."""
     import pandas as pd
@@ -483,7 +487,7 @@ def read_table(path: Path, model: Any, mapping: Any) -> tuple[Any, bool]:
         raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
 
 
-def read_table_log(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+def read_table_log(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
     """A CSV or Parquet log (the reader of the "csv" and "parquet" formats)."""
     frame, csv = read_table(path, model, mapping)
     return log_from_frame(frame, model, source=path.name, mapping=mapping, csv=csv, **options)

@@ -59,10 +59,12 @@ import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
+from ..exceptions import LogFormatError
+from ..models import Model, Vehicle
 from ._ardupilot import FRAMES, RC_AXES, manual_mixer, motor_signs
 from ._frames import BODY_FRAMES, WORLD_FRAMES, quaternion_matrix, to_ned_frd, twist_frame_fit
 from ._mapping import check_keys
@@ -78,7 +80,6 @@ from ._streams import (
     thruster_rpm,
     vehicle_frame,
 )
-from ._units import LogFormatError
 
 __all__ = ["FRAME_FIT_RATIO", "read_bag"]
 
@@ -153,7 +154,7 @@ def _choice(ros: Mapping[str, Any], key: str, default: str, allowed: Any) -> str
     return value
 
 
-def _config(model: Any, mapping: Any, src: str) -> _Config:
+def _config(model: Model, mapping: Any, src: str) -> _Config:
     ros, inputs = mapping_section(model, mapping, "ros", _ROS_KEYS, src, "a bag")
     world = _choice(ros, "world_frame", "enu", WORLD_FRAMES)
     body = _choice(ros, "body_frame", "flu", BODY_FRAMES)
@@ -391,7 +392,7 @@ def _rc_channels(values: np.ndarray) -> tuple[np.ndarray, list[str]]:
 
 
 def _mixed(
-    cfg: _Config, model: Any, channels: np.ndarray, src: str, topic: str
+    cfg: _Config, model: Model, channels: np.ndarray, src: str, topic: str
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Motor PWM from RC channels by ArduSub's MANUAL mixer; signs per motor."""
     mixer = cfg.mixer
@@ -433,7 +434,7 @@ def _mixed(
         float(mixer.get("rc_max", 1900)),
     )
     pwm = manual_mixer(channels, code, reverse, axes=axes, rc_range=rc_range)
-    signs = motor_signs(model, factors, src) * reverse
+    signs = motor_signs(cast(Vehicle, model), factors, src) * reverse  # 6-DoF: checked
     note = (
         f"RC channels are pilot inputs: motor outputs from ArduSub's MANUAL-mode mixer "
         f"(AP_Motors6DOF, frame {frame}, FRAME_CONFIG {code}), as the mapping declares; "
@@ -445,7 +446,7 @@ def _mixed(
 
 
 def _command_values(
-    cfg: _Config, streams: Any, t_state: np.ndarray, model: Any, src: str
+    cfg: _Config, streams: Any, t_state: np.ndarray, model: Model, src: str
 ) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
     """Commands at each state stamp (zero-order hold), the mask of stamps with one,
     the sources, notes."""
@@ -503,7 +504,7 @@ def _values(obj: Any, wrench: bool) -> np.ndarray:
 
 
 def _inputs(
-    cfg: _Config, streams: Any, t_state: np.ndarray, model: Any, src: str
+    cfg: _Config, streams: Any, t_state: np.ndarray, model: Model, src: str
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """The model's inputs at each state stamp (rpm or wrench), the mask, notes."""
     cmds, have, sources, notes = _command_values(cfg, streams, t_state, model, src)
@@ -543,7 +544,7 @@ def _inputs(
     return rpm, have, [f"inputs from {where}; {how[0]}", *notes, *how[1:]]
 
 
-def read_bag(path: Path, model: Any, *, mapping: Any = None, **options: Any) -> LogData:
+def read_bag(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
     """Read a ROS 2 bag (directory, ``.db3`` or ``.mcap``, with or without its
     ``metadata.yaml``) or a ROS 1 ``.bag`` of a vehicle through a mapping file (module
     docstring); ``options`` as :func:`read_log`. Returns :class:`LogData`; the notes

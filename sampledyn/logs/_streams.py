@@ -18,9 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import LogFormatError
+from ..models import Model
 from ._mapping import check_keys, load_toml
 from ._t200 import T200_VOLTAGES, t200_deadband, t200_rpm
-from ._units import CONVERSIONS, LogFormatError
+from ._units import CONVERSIONS
 
 __all__ = [
     "SAMPLING_RULE",
@@ -48,7 +50,7 @@ SAMPLING_RULE = (
 )
 
 
-def check_vehicle(model: Any, src: str) -> None:
+def check_vehicle(model: Model, src: str) -> None:
     """Bags and DataFlash logs hold 6-DoF vehicle motion: the model must have the
     states (x, y, z, phi, theta, psi, u, v, w, p, q, r) in m, rad, m/s, rad/s."""
     if tuple(model.state_names) != VEHICLE_STATES or tuple(model.state_units) != _STATE_UNITS:
@@ -61,7 +63,7 @@ def check_vehicle(model: Any, src: str) -> None:
 
 
 def mapping_section(
-    model: Any, mapping: Any, section: str, keys: Sequence[str], src: str, what: str
+    model: Model, mapping: Any, section: str, keys: Sequence[str], src: str, what: str
 ) -> tuple[dict[str, Any], Mapping[str, Any]]:
     """The ``[section]`` of a bag or DataFlash mapping file and its input table
     (``thrusters``, or ``wrench`` where ``keys`` allows it), every key checked (the
@@ -278,7 +280,7 @@ def surface_warning(z: np.ndarray, src: str) -> list[str]:
 
 
 def vehicle_frame(
-    model: Any,
+    model: Model,
     stamps: np.ndarray,
     stamp_unit: str,
     eta: np.ndarray,

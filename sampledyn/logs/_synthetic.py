@@ -16,6 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from ..exceptions import ArgumentError
+
 __all__ = ["survey_input", "synthetic_log", "write_synthetic_log"]
 
 # Mean generalized force of the survey (N, N, N, N m, N m, N m): forward, slightly up,
@@ -27,7 +30,7 @@ def survey_input(vehicle: Any) -> Any:
     """Thruster rpm: mean rpm for a forward, turning motion (least-squares allocation
     of a constant force) plus two sinusoids per thruster (6 % and 3 % of n_max on
     horizontal thrusters, 2 % and 1 % on vertical ones)."""
-    from ..models import thruster_allocation
+    from ..models._rigid_body import thruster_allocation
     from ..signals import Sinusoidal
 
     dirs = np.asarray(vehicle.thruster_directions, dtype=float)
@@ -76,18 +79,20 @@ def synthetic_log(
     """
     import pandas as pd
 
+    from .._noise import add_noise
+    from .._simulate import simulate
     from ..models import load_vehicle
-    from ..noise import add_noise
-    from ..simulate import simulate
 
     model = load_vehicle(vehicle)
     if jitter > 0:
-        ticks = int(round(h / clock))
-        if ticks < 1 or abs(ticks * clock - h) > 1e-9 * h:
-            raise ValueError(f"`h` = {h} s must be a whole number of `clock` = {clock} s ticks.")
+        ticks = checks.integer_ratio(h, clock)
+        if ticks is None:
+            raise ArgumentError(
+                "h", f"`h` = {h} s must be a whole number of `clock` = {clock} s ticks."
+            )
         fine = simulate(model, survey_input(model), T=T, h=clock, certify=False)
         n = int(round(T / h)) + 1
-        reach = int(jitter / clock + 1e-9)
+        reach = checks.floor_ratio(jitter, clock)
         shift = np.random.default_rng([seed, 1]).integers(-reach, reach + 1, n)
         shift[0], shift[-1] = abs(shift[0]), -abs(shift[-1])
         at = ticks * np.arange(n) + shift

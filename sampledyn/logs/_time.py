@@ -41,7 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from ._units import LogFormatError
+from .. import _checks as checks
+from ..exceptions import LogFormatError
 
 __all__ = ["CLOCK_UNITS", "GAP_POLICIES", "TIME_UNITS", "Clock", "Sampling", "read_clock"]
 
@@ -464,10 +465,7 @@ def check_policy(gaps: str, max_missing: Any, tolerance: Any) -> None:
         raise LogFormatError(
             "gaps", f"`gaps` must be one of {', '.join(GAP_POLICIES)}, got {gaps!r}."
         )
-    if isinstance(max_missing, bool) or not isinstance(max_missing, int) or max_missing < 1:
-        raise LogFormatError(
-            "max_missing", f"`max_missing` must be a positive int, got {max_missing!r}."
-        )
+    checks.count(max_missing, "max_missing", error=LogFormatError, types=LogFormatError)
     if not (
         isinstance(tolerance, int | float) and math.isfinite(tolerance) and 0 < tolerance < 0.5
     ):

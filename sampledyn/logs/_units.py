@@ -5,16 +5,9 @@ from __future__ import annotations
 import math
 import re
 
-__all__ = ["CONVERSIONS", "LogFormatError", "conversion_factor", "split_header"]
+from ..exceptions import LogFormatError
 
-
-class LogFormatError(ValueError):
-    """A log that cannot be used as it is; ``argument`` names the culprit (a column,
-    "t", or the option to change)."""
-
-    def __init__(self, argument: str, message: str) -> None:
-        super().__init__(message)
-        self.argument = argument
+__all__ = ["CONVERSIONS", "conversion_factor", "split_header"]
 
 
 _DEG = math.pi / 180.0

@@ -32,7 +32,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
+from .. import _checks as checks
 from .._trajectory import Trajectory
+from ..models import Model
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -68,11 +70,7 @@ STABILITY_INTERVAL_MIN = 0.05
 
 
 def _check_order(s: Any) -> int:
-    if isinstance(s, bool) or not isinstance(s, int | np.integer):
-        raise TypeError(f"order `s` must be an int, got {type(s).__name__}.")
-    if s < 1:
-        raise ValueError(f"order `s` must be >= 1, got {s}.")
-    return int(s)
+    return checks.count(s, "s", what="order")
 
 
 @lru_cache(maxsize=64)
@@ -333,7 +331,7 @@ class AdamsBashforth(AdamsRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -355,7 +353,7 @@ class AdamsBashforth(AdamsRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -374,7 +372,7 @@ class AdamsBashforth(AdamsRule):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

@@ -65,7 +65,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .. import _checks as checks
 from .._trajectory import Trajectory, steps_on_grid, uniform_grid
+from ..models import Model
 
 __all__ = [
     "DiscreteStep",
@@ -130,7 +132,7 @@ class Predictor(Method, Protocol):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -160,7 +162,7 @@ class NoiseAnalysis(Protocol):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -172,7 +174,7 @@ class NoiseAnalysis(Protocol):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -189,7 +191,7 @@ class Estimator(Predictor, Protocol):
     """A rule that estimates the model's parameters on the data it predicts."""
 
     def estimate_and_predict(
-        self, model: Any, data: Trajectory, signal: Any = None, *, after: float | None = None
+        self, model: Model, data: Trajectory, signal: Any = None, *, after: float | None = None
     ) -> tuple[np.ndarray, Any]:
         """``(x_hat, EstimationResult)``: the estimate on ``data`` and the predictions."""
         ...
@@ -219,17 +221,25 @@ class DiscreteStep(Protocol):
     @property
     def takes_f0(self) -> bool: ...
 
-    def source(self) -> str: ...
+    def source(self) -> str:
+        """The numba source of the compiled step (see the class docstring)."""
+        ...
 
     def blocks(
         self, f: Any, t: Any, blocks: list[Any], u: Any, h: float, solver: Any = None
-    ) -> list[Any]: ...
+    ) -> list[Any]:
+        """The next state's blocks from the current ones, on numpy or CasADi values."""
+        ...
 
     def linearize(
-        self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float
-    ) -> tuple[np.ndarray, np.ndarray]: ...
+        self, model: Model, t: float, z: np.ndarray, u: np.ndarray, h: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_d, B_d)`` of z+ = F(z, u) at ``(z, u)``, exact."""
+        ...
 
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any: ...
+    def steady_state(self, model: Model, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any:
+        """The state z of a constant history at ``(x, u)``."""
+        ...
 
 
 @runtime_checkable
@@ -261,7 +271,7 @@ class FixedRule:
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -375,7 +385,7 @@ def uniform_step(data: Trajectory, method: str) -> float:
 
 def _cached(
     kind: str,
-    model: Any,
+    model: Model,
     data: Trajectory,
     cache: dict[Any, Any] | None,
     compute: Callable[[], Any],
@@ -397,13 +407,13 @@ def _cached(
     return value
 
 
-def sample_f(model: Any, data: Trajectory, cache: dict[Any, Any] | None = None) -> np.ndarray:
+def sample_f(model: Model, data: Trajectory, cache: dict[Any, Any] | None = None) -> np.ndarray:
     """``f(t_n, x_n, u_n)`` for every sample, shape (N, nx), shared through ``cache``."""
     return _cached("f", model, data, cache, lambda: model.f(data.t, data.x, data.u))
 
 
 def sample_jacobian(
-    model: Any, data: Trajectory, cache: dict[Any, Any] | None = None
+    model: Model, data: Trajectory, cache: dict[Any, Any] | None = None
 ) -> np.ndarray:
     """``df/dx (t_n, x_n, u_n)`` for every sample, shape (N, nx, nx), shared through
     ``cache``."""
@@ -453,9 +463,7 @@ def check_gain_args(h: Any, lipschitz: Any) -> tuple[float, np.ndarray]:
             f"`lipschitz` must be a finite non-negative square array (2x2: eta and v "
             f"blocks), got {lipschitz!r}."
         )
-    if not (isinstance(h, int | float | np.floating | np.integer) and np.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
-    return float(h), L
+    return checks.period(h), L
 
 
 def nan_rows(data: Trajectory, shape: tuple[int, ...] = ()) -> np.ndarray:

@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models import Model
+
 __all__ = ["ExactFlow", "ExactHold", "zoh_matrices"]
 
 
@@ -86,7 +88,7 @@ class ExactFlow:
         return [solver.flow(blocks[0], u, h)]
 
     def linearize(
-        self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float
+        self, model: Model, t: float, z: np.ndarray, u: np.ndarray, h: float
     ) -> tuple[np.ndarray, np.ndarray]:
         """(A_d, B_d) of the zero-order hold of the linearisation at (t, z, u):
         :func:`zoh_matrices` of F = df/dx and G = df/du there (see the module
@@ -97,7 +99,9 @@ class ExactFlow:
         G = np.asarray(model.input_jacobian(float(t), z, u), dtype=float)
         return zoh_matrices(F, G, h)
 
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> np.ndarray:
+    def steady_state(
+        self, model: Model, x: np.ndarray, u: np.ndarray, t: float = 0.0
+    ) -> np.ndarray:
         """z = x."""
         return np.array(x, dtype=float)
 

@@ -24,6 +24,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..models import Model
 from ._adams import AdamsRule, fill_lagged, lagged_jacobians
 from ._base import fixed_step, nan_rows, sample_f, sample_jacobian, uniform_stencils
 from ._program import Combination, Stage, StepProgram
@@ -73,7 +74,7 @@ class HeldHistoryRule(AdamsRule):
 
     def _history(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         cache: Any,
         h: float | None,
@@ -103,7 +104,7 @@ class HeldHistoryRule(AdamsRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -129,7 +130,7 @@ class HeldHistoryRule(AdamsRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -167,7 +168,7 @@ class HeldHistoryRule(AdamsRule):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

@@ -36,6 +36,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..models import Model
 from ._base import check_gain_args, check_ratio, fixed_step, sample_f, uniform_stencils
 from ._held import HeldHistoryRule
 from ._nodes import corner_patterns, history_nodes, lagrange_integrals, pattern_nodes
@@ -97,7 +98,7 @@ class JumpAwareAdamsBashforth(HeldHistoryRule):
 
     def _history(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         cache: Any,
         h: float | None,
@@ -198,7 +199,7 @@ class JumpAwareAdamsBashforth(HeldHistoryRule):
 
     def truncation_differences(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

@@ -18,7 +18,7 @@ A value is referred to as ("z", b) (block b of z), ("k", i) (f of stage i) or
 floating-point operations in the same order wherever they are executed:
 
 * :meth:`StepProgram.source`: the numba source of ``step(t, z, u, p, h, out)``
-  (and ``step_f``, the step given f at x_n), compiled by :mod:`sampledyn.discretize`
+  (and ``step_f``, the step given f at x_n), compiled by :func:`sampledyn.discretize`
   against the model's kernel;
 * :meth:`StepProgram.blocks`: the step in vector arithmetic (numpy arrays or CasADi
   symbols);
@@ -40,15 +40,12 @@ from typing import Any
 
 import numpy as np
 
-from .._trajectory import NumericalError
+from ..exceptions import ConvergenceError
+from ..models import Model
 
-__all__ = ["Combination", "ConvergenceError", "Stage", "StepProgram", "stage_jacobians"]
+__all__ = ["Combination", "Stage", "StepProgram", "stage_jacobians"]
 
 Ref = tuple[str, int]
-
-
-class ConvergenceError(NumericalError):
-    """An implicit rule's Newton iteration did not converge."""
 
 
 @dataclass(frozen=True)
@@ -342,7 +339,7 @@ class StepProgram:
     # ---- linearisation -------------------------------------------------------------
 
     def linearize(
-        self, model: Any, t: float, z: np.ndarray, u: np.ndarray, h: float
+        self, model: Model, t: float, z: np.ndarray, u: np.ndarray, h: float
     ) -> tuple[np.ndarray, np.ndarray]:
         """(A_d, B_d) = (dF/dz, dF/du) at (z, u), shapes (nz, nz) and (nz, nu): forward
         mode through the stages with the model's exact df/dx = F_i and df/du = G_i at
@@ -367,7 +364,9 @@ class StepProgram:
         rows = [_value(it, vals, h, h) for it in (self.update, *self.carry)]
         return np.vstack([r[1] for r in rows]), np.vstack([r[2] for r in rows])
 
-    def steady_state(self, model: Any, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> np.ndarray:
+    def steady_state(
+        self, model: Model, x: np.ndarray, u: np.ndarray, t: float = 0.0
+    ) -> np.ndarray:
         """z of a constant history at (x, u): x in every state block, f(t, x, u) in
         every f block (zero at an equilibrium), shape (nz,)."""
         x = np.asarray(x, dtype=float)
@@ -406,7 +405,7 @@ def _value(item: Ref | Combination, vals: dict[Ref, Any], hv: Any, hm: Any) -> t
 
 def _forward(
     prog: StepProgram,
-    model: Any,
+    model: Model,
     t: Any,
     hv: Any,
     hm: Any,
@@ -437,7 +436,7 @@ def _forward(
 
 def _implicit(
     prog: StepProgram,
-    model: Any,
+    model: Model,
     st: Stage,
     point: Combination,
     ti: float,
@@ -489,7 +488,7 @@ def _implicit(
 
 def stage_jacobians(
     prog: StepProgram,
-    model: Any,
+    model: Model,
     t0: np.ndarray,
     x0: np.ndarray,
     steps: np.ndarray,

@@ -8,7 +8,7 @@ and, where the family ends, the largest order that exists.
 
 The table is static, so :func:`available_methods` is complete in a fresh process;
 each factory is imported on first use (a lazy entry), so naming the estimated rules
-(Ee, ABe<s>, defined in :mod:`sampledyn.estimate`) costs nothing until one is built,
+(Ee, ABe<s>, defined in :mod:`sampledyn._estimate`) costs nothing until one is built,
 and no layer writes into this registry on import. :func:`register_family` adds a
 family of the user's at run time (after the built-in ones). Every other layer gets
 names and method objects from here and asks the objects what they are (the
@@ -188,11 +188,11 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
         "jump (order s across jumps), s >= 1", 6, None,
     ),
     (
-        "Ee", r"Ee", "sampledyn.estimate._estimated:estimated_euler",
+        "Ee", r"Ee", "sampledyn._estimate._estimated:estimated_euler",
         "estimated Euler (= ABe1)", None, None,
     ),
     (
-        "ABe<s>", r"ABe(\d+)", "sampledyn.estimate._estimated:EstimatedAdamsBashforth",
+        "ABe<s>", r"ABe(\d+)", "sampledyn._estimate._estimated:EstimatedAdamsBashforth",
         "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1", 6, None,
     ),
     (

@@ -22,7 +22,8 @@ import numpy as np
 from numba import njit
 
 from .._trajectory import Trajectory
-from ..models import readonly
+from ..models import Model
+from ..models._base import readonly
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -203,7 +204,7 @@ class RungeKutta(FixedRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -279,7 +280,7 @@ class RungeKutta(FixedRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

@@ -22,11 +22,14 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from .. import _checks as checks
 from .._trajectory import Trajectory
+from ..exceptions import ConvergenceError
+from ..models import Model
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
-from ._program import Combination, ConvergenceError, Stage, StepProgram
+from ._program import Combination, Stage, StepProgram
 
-__all__ = ["NEWTON_BLOCK", "ConvergenceError", "Tustin"]
+__all__ = ["NEWTON_BLOCK", "Tustin"]
 
 # Intervals solved together: the LU factors of a block (NEWTON_BLOCK x nx x nx floats,
 # 2.4 MB for nx = 12) stay in cache across its iterations instead of streaming the
@@ -52,10 +55,8 @@ class Tustin(FixedRule):
     order: int = 2
 
     def __post_init__(self) -> None:
-        if not (self.tol > 0):
-            raise ValueError(f"`tol` must be positive, got {self.tol}.")
-        if self.max_iter < 1:
-            raise ValueError(f"`max_iter` must be >= 1, got {self.max_iter}.")
+        checks.positive(self.tol, "tol")
+        checks.count(self.max_iter, "max_iter")
 
     @property
     def family(self) -> str:
@@ -85,7 +86,7 @@ class Tustin(FixedRule):
 
     def predict(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -116,7 +117,7 @@ class Tustin(FixedRule):
 
     def _newton(
         self,
-        model: Any,
+        model: Model,
         t1: np.ndarray,
         x0: np.ndarray,
         u1: np.ndarray,
@@ -142,7 +143,7 @@ class Tustin(FixedRule):
                 )
         return x
 
-    def _newton_block(self, model: Any, *block: np.ndarray) -> np.ndarray | None:
+    def _newton_block(self, model: Model, *block: np.ndarray) -> np.ndarray | None:
         """:meth:`_newton` on one block ``(t1, x0, u1, f0, x, h)`` (``x`` updated in
         place); None, or the indices of the intervals that did not converge."""
         t1, x0, u1, f0, x, h = block
@@ -189,7 +190,7 @@ class Tustin(FixedRule):
 
     def prediction_jacobians(
         self,
-        model: Any,
+        model: Model,
         data: Trajectory,
         signal: Any = None,
         *,

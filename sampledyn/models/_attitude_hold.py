@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
 from ._closed_loop import ClosedLoop, LinearFeedback
 
 __all__ = ["AttitudeHold", "roll_pitch_hold"]
@@ -66,8 +67,7 @@ def roll_pitch_hold(
     the columns of phi, theta, p and q.
     """
     for name, value in (("kp", kp), ("kd", kd), ("n_lin_frac", n_lin_frac)):
-        if not value > 0:
-            raise ValueError(f"`{name}` must be > 0, got {value}.")
+        checks.positive(value, name)
     p_map = _vertical_map(vehicle)
     scale = 1.0 / (2.0 * vehicle.K1 * n_lin_frac * vehicle.n_max)  # rpm per N
     gain = np.zeros((p_map.shape[0], int(vehicle.nx)))

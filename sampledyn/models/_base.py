@@ -15,6 +15,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numba import float64, njit, types
 
+from ..exceptions import JacobianUnavailableError
 from ._codegen import batch_functions
 
 __all__ = [
@@ -23,7 +24,6 @@ __all__ = [
     "JAC_SIG",
     "RHS_SIG",
     "CompiledModel",
-    "JacobianUnavailableError",
     "LinearForm",
     "Model",
     "ParameterArrayModel",
@@ -193,11 +193,6 @@ def batch_eval(kernel: Callable[..., None], p: Any, t: Any, x: Any, u: Any, nx: 
     return out[0] if single else out
 
 
-class JacobianUnavailableError(NotImplementedError):
-    """The model has no exact Jacobian (sampledyn never falls back to finite
-    differences); the message says how to supply one."""
-
-
 class LinearForm:
     """``f(t, x, u) = Phi(t, x, u) @ theta + f0(t, x, u)`` for a model linear in theta.
 
@@ -224,14 +219,46 @@ class LinearForm:
 
 @runtime_checkable
 class Model(Protocol):
-    """Continuous-time dynamics ``x' = f(t, x, u)``; never a stepping scheme."""
+    """Continuous-time dynamics ``x' = f(t, x, u)``; never a stepping scheme: what the
+    simulator, the rules, the analysis and the experiments ask of a model (the type of
+    their ``model`` arguments). :class:`CompiledModel`, the base of every built-in and
+    user model, answers it; a model of your own subclasses it (``kernel`` and
+    ``jacobian_kernel`` are the compiled right-hand side and Jacobian)."""
 
-    nx: int
-    nu: int
-    state_names: tuple[str, ...]
-    state_units: tuple[str, ...]
-    input_names: tuple[str, ...]
-    input_units: tuple[str, ...]
+    @property
+    def nx(self) -> int:
+        """Number of states."""
+        ...
+
+    @property
+    def nu(self) -> int:
+        """Number of inputs."""
+        ...
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """Names of the states."""
+        ...
+
+    @property
+    def state_units(self) -> tuple[str, ...]:
+        """Units of the states ("m", "rad", "m/s", "rad/s", ...)."""
+        ...
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """Names of the inputs."""
+        ...
+
+    @property
+    def input_units(self) -> tuple[str, ...]:
+        """Units of the inputs."""
+        ...
+
+    @property
+    def default_x0(self) -> np.ndarray:
+        """Initial state used when none is given, shape (nx,)."""
+        ...
 
     def f(self, t: Any, x: Any, u: Any) -> np.ndarray:
         """Right-hand side; x shape (N, nx), u shape (N, nu) -> (N, nx)."""
@@ -239,6 +266,50 @@ class Model(Protocol):
 
     def jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
         """d f / d x; shape (N, nx, nx)."""
+        ...
+
+    def input_jacobian(self, t: Any, x: Any, u: Any) -> np.ndarray:
+        """d f / d u; shape (N, nx, nu)."""
+        ...
+
+    def kernel(self) -> tuple[Callable[..., None], Any]:
+        """The compiled ``rhs(t, x, u, p, out)`` and its parameters ``p``."""
+        ...
+
+    def jacobian_kernel(self) -> tuple[Callable[..., None], Any]:
+        """The compiled ``jac(t, x, u, p, out)`` and ``p``."""
+        ...
+
+    def input_jacobian_kernel(self) -> tuple[Callable[..., None], Any]:
+        """The compiled ``jac_u(t, x, u, p, out)`` and ``p``."""
+        ...
+
+    def switch_kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
+        """The switching values whose zero crossings are the kinks of f."""
+        ...
+
+    def check_states(self, x: Any) -> None:
+        """Raise (or warn) for states outside the model's domain."""
+        ...
+
+
+@runtime_checkable
+class ParametricModel(Model, Protocol):
+    """A model with named parameters (what estimation asks): their values, their
+    names, and a copy with other values."""
+
+    @property
+    def params(self) -> dict[str, float]:
+        """Parameter values by name."""
+        ...
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Parameter names, in the order of the parameter array."""
+        ...
+
+    def with_params(self, **values: Any) -> Any:
+        """The same model with some parameter values changed."""
         ...
 
 

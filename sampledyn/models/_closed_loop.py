@@ -28,16 +28,9 @@ from numba import njit, types
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
+from ..exceptions import JacobianUnavailableError
 from . import _codegen
-from ._base import (
-    JAC_BLOCK_ROWS,
-    RHS_SIG,
-    CompiledModel,
-    JacobianUnavailableError,
-    LinearForm,
-    _as_batch,
-    _compiled,
-)
+from ._base import JAC_BLOCK_ROWS, RHS_SIG, CompiledModel, LinearForm, _as_batch, _compiled
 from ._jumps import refuse_jumps
 
 __all__ = ["ClosedLoop", "FeedbackLaw", "LinearFeedback", "stack_buffer"]

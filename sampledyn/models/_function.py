@@ -4,7 +4,7 @@ The function is compiled for the project's kernel signature, so the exact simula
 and every predictor call it as they call the built-in kernels. Nothing is derived from
 it: the Jacobian is the user's (``jac=``) or absent, and then everything that needs
 one (Tustin, sensitivity bounds, Jacobian maxima, closed-loop Jacobians) raises
-:class:`~sampledyn.models.JacobianUnavailableError` saying how to supply it; nothing
+:class:`~sampledyn.exceptions.JacobianUnavailableError` saying how to supply it; nothing
 silently falls back to finite differences.
 
 The compiled kernels live in this process only (a function defined in a script or a
@@ -24,8 +24,9 @@ import numpy as np
 from numba import njit
 from numba.core.errors import NumbaError
 
+from ..exceptions import JacobianUnavailableError
 from . import _closed_loop, _codegen, _jumps
-from ._base import JAC_SIG, RHS_SIG, JacobianUnavailableError, ParameterArrayModel
+from ._base import JAC_SIG, RHS_SIG, ParameterArrayModel
 
 __all__ = ["FunctionModel"]
 
@@ -254,6 +255,8 @@ class FunctionModel(ParameterArrayModel):
         return sw.kernel, self._p, np.zeros(len(sw.names), dtype=np.bool_)
 
     def switching_names(self) -> tuple[str, ...]:
+        """Names of the switching values, in the order of the switching kernel's
+        outputs (the declared ones, or the states and inputs inside ``|.|``)."""
         sw = self._switching
         if sw is None:
             names = [self.state_names[i] for i in self.kink_states]

@@ -25,10 +25,13 @@ gives there (``sign(0) = 0``, ``Heaviside(0) = 1/2``) is never used as a vector 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit
+
+if TYPE_CHECKING:
+    from ._base import Model
 
 __all__ = [
     "SURFACE_RHS",
@@ -137,7 +140,7 @@ def surface_source(jumps: tuple[int, ...], n_sw: int, n_p: int) -> str:
     )
 
 
-def surface_at(model: Any, t: float, x: Any, u: Any) -> str | None:
+def surface_at(model: Model, t: float, x: Any, u: Any) -> str | None:
     """The switching surface of a jump of f that (t, x, u) lies on, as text, or None.
 
     On the surface f has no derivative (it jumps), so df/dx does not exist there. A
@@ -160,7 +163,7 @@ def surface_at(model: Any, t: float, x: Any, u: Any) -> str | None:
     return None
 
 
-def refuse_jumps(model: Any, argument: str, why: str) -> None:
+def refuse_jumps(model: Model, argument: str, why: str) -> None:
     """Raise ValueError if ``model``'s f jumps (it has a branch kernel): for consumers
     that integrate or compose f without its branches; ``why`` says what they lack and
     what to use instead."""

@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import SingularPitchError
+
 __all__ = [
-    "SingularPitchError",
     "check_pitch",
     "coriolis_matrix",
     "euler_rate_matrix",
@@ -31,29 +32,6 @@ __all__ = [
     "skew",
     "thruster_allocation",
 ]
-
-
-class SingularPitchError(ValueError):
-    """A pitch angle within the tolerance of +-90 deg, where the Euler-angle
-    kinematics J(eta) of eq. (6) is singular.
-
-    Attributes
-    ----------
-    theta : float
-        The pitch angle (rad).
-    sample : int
-        Its index in the batch of states that was checked.
-    tolerance_deg : float
-    """
-
-    def __init__(self, message: str, theta: float, sample: int, tolerance_deg: float) -> None:
-        super().__init__(message)
-        self.theta = theta
-        self.sample = sample
-        self.tolerance_deg = tolerance_deg
-
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:  # survives a worker process
-        return type(self), (str(self), self.theta, self.sample, self.tolerance_deg)
 
 
 def skew(a: Any) -> np.ndarray:

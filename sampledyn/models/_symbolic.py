@@ -14,7 +14,7 @@ A user states the state, input and parameter symbols and the right-hand side
   of every relation in a ``Piecewise`` condition. f is smooth between their zero
   crossings, and the exact simulator ends its internal steps on them;
 * for the parameters that enter f linearly, ``f = Phi(t, x, u) theta + f0(t, x, u)``
-  (:class:`~sampledyn.models.LinearForm`), used by :func:`sampledyn.estimate`.
+  (:class:`~sampledyn.models._base.LinearForm`), used by :func:`sampledyn.estimate`.
 
 The kernels are written as Python source by a sympy code printer into the kernel cache
 (see :mod:`sampledyn.models._codegen`), keyed by a hash of that source, and compiled by

@@ -45,14 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from ._vehicle import (
-    QUADRATIC_IS_DIAGONAL,
-    SYMMETRY_RTOL,
-    AsymmetricPair,
-    Vehicle,
-    VehicleParameterError,
-    symmetrized,
-)
+from ..exceptions import VehicleParameterError
+from ._vehicle import QUADRATIC_IS_DIAGONAL, SYMMETRY_RTOL, AsymmetricPair, Vehicle, symmetrized
 
 __all__ = ["builtin_vehicles", "load_vehicle"]
 
@@ -263,6 +257,8 @@ def _declared_symmetric(
 
 
 def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
+    """The :class:`Vehicle` arguments of a vehicle file's ``data`` (every entry
+    checked, its source kept in ``sources``)."""
     unknown = set(data) - _TOP
     if unknown:
         raise _fail(
@@ -277,34 +273,51 @@ def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
     if "description" in data and not isinstance(data["description"], str):
         raise _fail(path, "description", "must be a string.")
     for table, spec in _SCHEMA.items():
-        content = data.get(table)
-        if content is None:
-            raise _fail(path, table, "missing table.")
-        if not isinstance(content, dict):
-            raise _fail(path, table, "must be a table.")
-        unknown = set(content) - set(spec)
-        if unknown:
-            key = sorted(unknown)[0]
-            raise _fail(path, f"{table}.{key}", f"unknown key; allowed: {sorted(spec)}.")
-        for key, (arg, units, required) in spec.items():
-            fld = f"{table}.{key}"
-            if key not in content:
-                if required:
-                    raise _fail(path, fld, "missing.")
-                continue
-            entry = content[key]
-            declared = None
-            if isinstance(entry, dict) and "symmetrised" in entry:
-                entry = dict(entry)
-                declared = _declaration(path, fld, arg, entry.pop("symmetrised"))
-            value, source = _quantity(path, fld, entry, units)
-            if declared is not None:
-                value = _declared_symmetric(path, fld, arg, value, *declared)
-            if arg in _DAMPING:
-                _check_damping(path, fld, value)
-            kwargs[arg] = value
-            sources[arg] = source
-    thrusters = data.get("thruster")
+        _parse_table(path, table, spec, data.get(table), kwargs, sources)
+    positions, directions = _parse_thrusters(path, data.get("thruster"), sources)
+    kwargs["thruster_positions"] = positions
+    kwargs["thruster_directions"] = directions
+    kwargs["sources"] = sources
+    return kwargs
+
+
+def _parse_table(
+    path: Any, table: str, spec: dict[str, Any], content: Any, kwargs: dict[str, Any],
+    sources: dict[str, str],
+) -> None:  # fmt: skip
+    """The quantities of one table of a vehicle file into ``kwargs`` and ``sources``."""
+    if content is None:
+        raise _fail(path, table, "missing table.")
+    if not isinstance(content, dict):
+        raise _fail(path, table, "must be a table.")
+    unknown = set(content) - set(spec)
+    if unknown:
+        key = sorted(unknown)[0]
+        raise _fail(path, f"{table}.{key}", f"unknown key; allowed: {sorted(spec)}.")
+    for key, (arg, units, required) in spec.items():
+        fld = f"{table}.{key}"
+        if key not in content:
+            if required:
+                raise _fail(path, fld, "missing.")
+            continue
+        entry = content[key]
+        declared = None
+        if isinstance(entry, dict) and "symmetrised" in entry:
+            entry = dict(entry)
+            declared = _declaration(path, fld, arg, entry.pop("symmetrised"))
+        value, source = _quantity(path, fld, entry, units)
+        if declared is not None:
+            value = _declared_symmetric(path, fld, arg, value, *declared)
+        if arg in _DAMPING:
+            _check_damping(path, fld, value)
+        kwargs[arg] = value
+        sources[arg] = source
+
+
+def _parse_thrusters(
+    path: Any, thrusters: Any, sources: dict[str, str]
+) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """Positions and directions of the ``[[thruster]]`` tables (sources kept)."""
     if not isinstance(thrusters, list) or not thrusters:
         raise _fail(path, "thruster", "missing: give at least one [[thruster]] table.")
     positions: list[Any] = []
@@ -328,10 +341,7 @@ def _parse(path: Any, data: dict[str, Any]) -> dict[str, Any]:
             value, source = _quantity(path, f"{base}.{key}", th[key], units)
             (positions if key == "position" else directions).append(value)
             sources[f"{base}.{key}"] = source
-    kwargs["thruster_positions"] = tuple(positions)
-    kwargs["thruster_directions"] = tuple(directions)
-    kwargs["sources"] = sources
-    return kwargs
+    return tuple(positions), tuple(directions)
 
 
 def _file_field(argument: str) -> str:

@@ -134,7 +134,7 @@ def _missing_notes(rows: Sequence[dict[str, Any]]) -> list[str]:
 
 def auv_report(output: Any, out: Path, *, store: Any = None) -> list[str]:
     """The report of ``reproduce fig2`` / ``fig3`` (a
-    :class:`~sampledyn.experiments.StudyOutput` of the AUV-like study): writes
+    :class:`~sampledyn.experiments._studies.StudyOutput` of the AUV-like study): writes
     ``<study>.csv`` and ``<study>.png`` into ``out``; returns the lines to print (the
     norm's table, the masked rms tables, why an entry is n/a, the files)."""
     from ._tables import format_grid, write_csv

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..experiments import PAPER_FIG7
+from ..experiments._paper_fig7 import PAPER_FIG7
 from ..methods import get_predictor
 
 __all__ = ["fig7_table", "norm_evidence", "plot_fig7", "ratio_phrase"]
@@ -245,12 +245,12 @@ def _loop(config: Any) -> str:
 
 
 def fig7_report(output: Any, out: Path, *, store: Any = None) -> list[str]:
-    """The report of ``reproduce fig7`` (a :class:`~sampledyn.experiments.StudyOutput`
+    """The report of ``reproduce fig7`` (a :class:`~sampledyn.experiments._studies.StudyOutput`
     of the Fig. 7 study): writes ``fig7_runs.csv`` (one row per run), ``fig7.csv``
     (means over seeds) and ``fig7.png`` into ``out``; returns the lines to print (the
     exact samples' certificates and motion, the table next to the paper's numbers,
     the evidence on which norm the paper's is)."""
-    from ..experiments import FIG7_NORMS
+    from ..experiments._rov import FIG7_NORMS
     from ._tables import write_csv
 
     (result,) = output.results

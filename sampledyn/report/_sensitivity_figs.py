@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..methods import get_predictor
-from ..sensitivity import ErrorCurves
+from ..sensitivity._curves import ErrorCurves
 
 __all__ = [
     "plot_boundary_map",

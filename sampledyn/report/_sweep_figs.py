@@ -57,7 +57,7 @@ def sorted_pairs(frame: Any) -> list[tuple[float, float]]:
 def block_units(norm: str) -> tuple[str, str]:
     """The units of the eta and v numbers of a stored norm, e.g. ("m and rad", "m/s and
     rad/s") for "rms", ("m", "m/s") for "rms[m,m/s]"."""
-    from ..experiments.sweep import parse_norm
+    from ..experiments.sweep._norms import parse_norm
 
     try:
         units = parse_norm(norm).units

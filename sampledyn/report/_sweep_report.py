@@ -235,7 +235,7 @@ def _complete_mean(values: Any) -> float:
 
 
 def _kind_blocks(i: int, key: dict[str, Any], cells: Any, trajs: Any) -> list[Block]:
-    from ..experiments.sweep import get_cell_kind
+    from ..experiments.sweep._cells import get_cell_kind
 
     """A study of another cell kind: its named results, means over seeds per (h,
     noise, method) (and per measure, pivoted, when it has several)."""
@@ -423,7 +423,7 @@ def write_report(
     ValueError
         if the store holds no cells.
     """
-    from ..experiments.sweep import load_results as load
+    from ..experiments.sweep._store import load_results as load
 
     cells = load(source)  # generic: every kind's cells
     if cells.empty:

@@ -46,10 +46,14 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from .._local_errors import sum_of_squares
+from .._noise import NOISE_REFERENCE, noise_amplitudes
 from .._trajectory import Trajectory
-from ..errors import sum_of_squares
-from ..methods import fixed_step, stencil_steps
-from ..noise import NOISE_REFERENCE, noise_amplitudes
+from ..exceptions import ArgumentError
+from ..methods import Method, stencil_steps
+from ..methods._base import fixed_step
+from ..models import Model, Vehicle
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import error_constant, first_order_gain, noise_gain, supported_method
 from ._jacobians import JacobianReport, _jacobian_bounds
@@ -193,13 +197,14 @@ def subsample(traj: Trajectory, k: int) -> Trajectory:
 
 def period_ratio(h: float, base: float, argument: str = "h") -> int:
     """The integer k with h = k base (s), or a ValueError naming ``argument``."""
-    k = round(h / base)
-    if k < 1 or abs(k * base - h) > 1e-9 * h:
-        raise ValueError(
+    k = checks.integer_ratio(h, base)
+    if k is None:
+        raise ArgumentError(
+            argument,
             f"`{argument}` h = {h} s must be an integer multiple of the reference sampling "
-            f"period {base} s; simulate the reference with a divisor of h."
+            f"period {base} s; simulate the reference with a divisor of h.",
         )
-    return int(k)
+    return k
 
 
 def exact_reference(reference: Any) -> Trajectory:
@@ -225,7 +230,7 @@ def reference_at(reference: Any, h: float) -> Trajectory:
 
 
 def domain_maxima(
-    model: Any,
+    model: Vehicle,
     clean: Trajectory,
     signal: Any,
     domain: Domain | None,
@@ -254,7 +259,7 @@ def block_error_norms(errors: np.ndarray, state_units: Any = None) -> tuple[np.n
     """
     e = np.asarray(errors, dtype=float)
     eta, v = (ETA, V) if state_units is None else state_blocks(state_units)
-    # The sum of squares as sampledyn.errors.error_norm forms it, so a bound built from
+    # The sum of squares as sampledyn.error_norm forms it, so a bound built from
     # these norms and an error measured by the engine compare to the last bit.
     return np.sqrt(sum_of_squares(e, eta)), np.sqrt(sum_of_squares(e, v))
 
@@ -267,7 +272,7 @@ def _nanmax(a: np.ndarray) -> float:
 
 
 def truncation_errors(
-    model: Any, method: Any, clean: Trajectory, signal: Any = None
+    model: Model, method: str | Method, clean: Trajectory, signal: Any = None
 ) -> tuple[float, float]:
     """Largest undisturbed local errors ``(max ||eps_eta||, max ||eps_v||)`` of ``method``
     on exact samples ``clean`` (state units)."""
@@ -277,7 +282,7 @@ def truncation_errors(
     return _nanmax(e_eta), _nanmax(e_v)
 
 
-def truncation_estimate(model: Any, m: Any, clean: Trajectory) -> tuple[float, float] | None:
+def truncation_estimate(model: Model, m: Any, clean: Trajectory) -> tuple[float, float] | None:
     """``C h max ||nabla^s f||`` per block, for the rules that extrapolate sampled f."""
     d = m.truncation_differences(model, clean)
     if d is None or d.shape[0] == 0 or m.error_constant is None:
@@ -317,7 +322,7 @@ def _apply(g: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def assemble_bound(
-    method: Any,
+    method: str | Method,
     h: float,
     eta_pct: float,
     v_pct: float,
@@ -370,8 +375,8 @@ def assemble_bound(
 
 
 def disturbed_error_bound(
-    model: Any,
-    method: Any,
+    model: Vehicle,
+    method: str | Method,
     h: float,
     eta_pct: float,
     v_pct: float,
@@ -393,7 +398,7 @@ def disturbed_error_bound(
         Sampling period (s).
     eta_pct, v_pct : float
         Uniform noise levels, % of 1 m / 30 deg and of 1 m/s / 30 deg/s
-        (:func:`sampledyn.noise.noise_amplitudes`).
+        (:func:`sampledyn._noise.noise_amplitudes`).
     domain : Domain, optional
         Box of the clean states for the Jacobian maxima; default: the smallest box
         holding the reference run (and its input).
@@ -423,8 +428,7 @@ def disturbed_error_bound(
     """
     check_vehicle(model, "model")
     m = supported_method(method)
-    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h!r}.")
+    h = checks.period(h)
     amplitudes = noise_amplitudes(model.state_units, eta_pct, v_pct)
     clean = reference_at(reference, h)
     _, jac, jac_plus = domain_maxima(model, clean, signal, domain, amplitudes, samples)

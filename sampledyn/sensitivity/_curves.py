@@ -15,8 +15,10 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
-from ..noise import noise_amplitudes
+from ..models import Model
 from ._bound import assemble_bound, jacobian_pair, subsample
 from ._domain import Domain
 from ._gains import supported_method
@@ -83,12 +85,11 @@ class ErrorCurves:
 def h_grid(h: float, h_min: float = 0.02, h_max: float | None = None) -> tuple[float, list[int]]:
     """Base period h0 = h / m (m = ceil(h / h_min)) and the multiples k of it to visit:
     about 6 per decade from h0 to ``h_max`` (default max(2 s, 4 h)), always with k = m."""
-    if not (math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
-    m = max(1, math.ceil(h / h_min - 1e-9))
+    h = checks.period(h)
+    m = max(1, checks.ceil_ratio(h, h_min))
     h0 = h / m
     top = max(2.0, 4.0 * h) if h_max is None else h_max
-    kmax = max(m, int(top / h0 + 1e-9))
+    kmax = max(m, checks.floor_ratio(top, h0))
     ks = {int(round(k)) for k in np.geomspace(1, kmax, int(6 * math.log10(kmax) + 2))}
     ks.add(m)
     return h0, sorted(k for k in ks if k >= 1)
@@ -108,7 +109,7 @@ def usable_periods(methods: Sequence[Any], base: Trajectory, ks: Sequence[int]) 
 
 
 def error_curves(
-    model: Any,
+    model: Model,
     methods: Sequence[Any],
     base: Trajectory,
     ks: Sequence[int],

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models import Model
+
 __all__ = ["Domain", "check_vehicle", "pitch_guard"]
 
 _V_NAMES = ("u", "v", "w", "p", "q", "r")
@@ -143,7 +145,7 @@ class Domain:
         ----------
         amplitudes : array_like, shape (12,)
             Noise amplitude of each state component (eta then v, state units), as
-            from :func:`sampledyn.noise.noise_amplitudes`.
+            from :func:`sampledyn._noise.noise_amplitudes`.
 
         Raises
         ------
@@ -176,7 +178,7 @@ class Domain:
         )
 
 
-def check_vehicle(model: Any, argument: str = "vehicle") -> None:
+def check_vehicle(model: Model, argument: str = "vehicle") -> None:
     """Raise unless ``model`` is a 6-DoF :class:`~sampledyn.models.Vehicle` without lag."""
     from ..models import Vehicle
 

@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
-from ..methods import NoiseAnalysis, Predictor, get_method
+from ..methods import Method, NoiseAnalysis, Predictor, get_method
 
 __all__ = ["error_constant", "first_order_gain", "noise_gain", "supported_method"]
 
 
-def supported_method(method: Any, argument: str = "method") -> Any:
+def supported_method(method: str | Method, argument: str = "method") -> Any:
     """The method object for ``method``: a predictor with a noise bound (a
     :class:`~sampledyn.methods.Predictor` and :class:`~sampledyn.methods.NoiseAnalysis`,
     the fixed rules; not the estimated ones, nor ZOH).
@@ -48,7 +48,7 @@ def supported_method(method: Any, argument: str = "method") -> Any:
     return m
 
 
-def error_constant(method: Any) -> Fraction | None:
+def error_constant(method: str | Method) -> Fraction | None:
     """Error constant C of the rule's leading local error ``C h^{s+1} x^{(s+1)}``.
 
     gamma_s for AB_s (1/2, 5/12, 3/8, 251/720, 95/288, 19087/60480 for s = 1..6),
@@ -57,7 +57,7 @@ def error_constant(method: Any) -> Fraction | None:
     return supported_method(method).error_constant
 
 
-def first_order_gain(method: Any) -> Fraction:
+def first_order_gain(method: str | Method) -> Fraction:
     """The coefficient c of the noise gain ``G = c h L + O((h L)^2)``.
 
     ``a_s = sum |a_i|`` for AB_s; ``sum |b_i|`` (= 1 for the built-in tableaux) for
@@ -67,7 +67,7 @@ def first_order_gain(method: Any) -> Fraction:
     return gain
 
 
-def noise_gain(method: Any, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
+def noise_gain(method: str | Method, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
     """Noise gain G of ``method`` at sampling period ``h`` (see the module docstring).
 
     Parameters
@@ -91,6 +91,6 @@ def noise_gain(method: Any, h: float, lipschitz: Any, ratio: float = 1.0) -> np.
     ------
     ValueError
         for an estimated rule (no bound), or a rule of order above
-        :data:`sampledyn.methods.MAX_GAIN_ORDER` with ``ratio`` > 1.
+        :data:`sampledyn.methods._nodes.MAX_GAIN_ORDER` with ``ratio`` > 1.
     """
     return supported_method(method).noise_gain(h, lipschitz, ratio)

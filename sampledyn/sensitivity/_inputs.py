@@ -18,7 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from ..signals import Sinusoidal, fig6_thrusters, thruster_roles
+from .. import _checks as checks
+from ..signals import Sinusoidal, fig6_thrusters
+from ..signals._fig6 import thruster_roles
 
 __all__ = ["gentle_input", "pitch_input"]
 
@@ -78,8 +80,7 @@ def pitch_input(
     ):
         if not (isinstance(val, int | float) and math.isfinite(val) and 0 <= val <= hi):
             raise ValueError(f"`{name}` must be in [0, {hi}], got {val!r}.")
-    if period_s <= 0:
-        raise ValueError(f"`period_s` must be > 0 s, got {period_s}.")
+    checks.positive(period_s, "period_s", unit="s")
     d = np.asarray(vehicle.thruster_directions, dtype=float)
     vertical, horizontal = thruster_roles(d)
     alloc = vehicle.allocation

@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..methods import Method
+from ..models import Model
 from ._bound import block_error_norms, block_noise, state_blocks
 from ._gains import supported_method
 from ._jacobians import spectral_norm
@@ -71,8 +73,8 @@ def _block_norms(phi: np.ndarray, eta: Any, v: Any) -> np.ndarray:
 
 
 def path_prediction(
-    model: Any,
-    method: Any,
+    model: Model,
+    method: str | Method,
     clean: Trajectory,
     amplitudes: np.ndarray,
     signal: Any = None,

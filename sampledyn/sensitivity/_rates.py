@@ -7,12 +7,14 @@ from typing import Any
 
 import numpy as np
 
+from ..models import Model
+
 __all__ = ["fastest_time_constant"]
 
 _BLOCK = 4096  # samples per batch of Jacobians (a (4096, 12, 12) batch is 4.7 MB)
 
 
-def fastest_time_constant(model: Any, traj: Any) -> float:
+def fastest_time_constant(model: Model, traj: Any) -> float:
     """Smallest local time constant ``1 / max |lambda|`` (s) over the eigenvalues
     ``lambda`` of the Jacobian df/dx at the samples of ``traj``.
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..noise import noise_amplitudes
+from .._noise import noise_amplitudes
 from ._bound import ETA, V, _apply
 from ._domain import Domain, check_vehicle, pitch_guard
 from ._gains import noise_gain, supported_method

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
+from ..models import Model
 from ._bound import block_error_norms
 from ._gains import supported_method
 
@@ -17,7 +18,7 @@ __all__ = ["measured_errors", "raw_errors"]
 
 
 def raw_errors(
-    model: Any, methods: Sequence[Any], data: Trajectory, signal: Any = None
+    model: Model, methods: Sequence[Any], data: Trajectory, signal: Any = None
 ) -> dict[str, np.ndarray]:
     """Local errors ``data.x - prediction`` of every method, shape (N, nx) each (NaN
     without prediction). f is evaluated once and shared by every AB order."""
@@ -30,7 +31,7 @@ def raw_errors(
 
 
 def measured_errors(
-    model: Any, methods: Sequence[Any], measured: Trajectory, signal: Any = None
+    model: Model, methods: Sequence[Any], measured: Trajectory, signal: Any = None
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per-sample disturbed local-error norms of every method on measured data.
 

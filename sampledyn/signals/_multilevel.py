@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from .. import _checks as checks
+from ..exceptions import ArgumentError
 from ._base import Signal
 
 __all__ = ["Multilevel", "ZeroOrderHold"]
@@ -43,12 +45,10 @@ class Multilevel(Signal):
     ) -> None:
         if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
             raise ValueError(f"need finite `low` < `high`, got low={low}, high={high}.")
-        if not (math.isfinite(hold) and hold > 0):
-            raise ValueError(f"`hold` (h_u, s) must be positive and finite, got {hold}.")
+        hold = checks.positive(hold, "hold", what="level duration", unit="s")
         if not isinstance(seed, int | np.integer):
             raise TypeError(f"`seed` must be an int, got {type(seed).__name__}.")
-        if not isinstance(nu, int) or nu < 1:
-            raise ValueError(f"`nu` must be a positive int, got {nu!r}.")
+        nu = checks.count(nu, "nu")
         self.low = float(low)
         self.high = float(high)
         self.hold = float(hold)
@@ -84,10 +84,11 @@ class Multilevel(Signal):
 
     def check_sampling(self, h: float) -> None:
         ratio = self.hold / h
-        if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
-            raise ValueError(
+        if checks.integer_ratio(self.hold, h) is None:
+            raise ArgumentError(
+                "hold",
                 f"`hold` h_u = {self.hold} s must be an integer multiple of the sampling "
-                f"period h = {h} s (h_u/h = {ratio:.6g}). Choose h_u = k*h."
+                f"period h = {h} s (h_u/h = {ratio:.6g}). Choose h_u = k*h.",
             )
 
 

@@ -11,7 +11,7 @@ the sensitivity analysis (``gentle``, ``pitch``) are listed here and imported fr
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .._named import NamedTable
 from ._base import Signal
@@ -19,14 +19,19 @@ from ._fig6 import fig6_thrusters
 from ._multilevel import Multilevel
 from ._sinusoid import Sinusoidal
 
+if TYPE_CHECKING:  # signals do not import the models at run time
+    from ..models import Model
+
 __all__ = ["INPUTS", "input_for"]
 
 
-def _multilevel(model: Any, low: float, high: float, hold: float, seed: int) -> Signal:
+def _multilevel(model: Model, low: float, high: float, hold: float, seed: int) -> Signal:
     return Multilevel(low=low, high=high, hold=hold, seed=seed, nu=int(model.nu))
 
 
-def _sinusoidal(model: Any, offset: Any, amplitude: Any, frequency_hz: Any, phase_rad: Any) -> Any:
+def _sinusoidal(
+    model: Model, offset: Any, amplitude: Any, frequency_hz: Any, phase_rad: Any
+) -> Any:
     nu = int(model.nu)
     return Sinusoidal(
         [0.0] * nu if offset is None else offset,
@@ -70,7 +75,7 @@ INPUTS.register(
 )
 
 
-def input_for(spec: Mapping[str, Any], model: Any) -> Any:
+def input_for(spec: Mapping[str, Any], model: Model) -> Any:
     """The signal of the input ``spec`` (``{"name": ..., **parameters}``, checked against
     :data:`INPUTS`) for ``model`` (the plant: a closed loop's reference has the plant's
     input channels).

@@ -2,7 +2,8 @@ import csv
 
 import pytest
 
-from sampledyn.cli import EXIT_BAD_VALUE, build_parser, main
+from sampledyn.cli import build_parser, main
+from sampledyn.cli._status import EXIT_BAD_VALUE
 
 
 def test_help_lists_every_command(capsys):
@@ -48,6 +49,7 @@ def test_bad_argument_exits_with_message(capsys):
     assert "`h`" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_estimated_rules_are_known_to_a_fresh_command():
     """The estimation layer registers Ee/ABe<s>; a command run in a new process (no
     other import first) must know them."""

@@ -21,17 +21,9 @@ from _faults import CLI, Unavailable, remount_readonly, tmpfs
 from _sweep_helpers import write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import (
-    EXIT_BAD_VALUE,
-    EXIT_FILE,
-    EXIT_INTERNAL,
-    EXIT_PIPE,
-    EXIT_STATUSES,
-    EXIT_USAGE,
-    build_parser,
-    main,
-)
-from sampledyn.errors import ERROR_NORMS
+from sampledyn._local_errors import ERROR_NORMS
+from sampledyn.cli import EXIT_STATUSES, build_parser, main
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_FILE, EXIT_INTERNAL, EXIT_PIPE, EXIT_USAGE
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_LOG = ROOT / "examples" / "rov_log.csv"
@@ -124,7 +116,7 @@ def test_missing_store_and_data_files(tmp_path, capsys):
 
 
 def _store_with_rows(path: Path, n: int) -> Path:
-    from sampledyn.experiments.sweep import ResultStore
+    from sampledyn.experiments.sweep._store import ResultStore
 
     with ResultStore(path) as st:
         run = st.start_run(backend="test", planned=n, skipped=0, config={})
@@ -139,6 +131,7 @@ def _store_with_rows(path: Path, n: int) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_results_into_a_closed_pipe_exits_quietly(tmp_path):
     db = _store_with_rows(tmp_path / "r.db", 20000)  # far more than a pipe buffer holds
     proc = subprocess.Popen(
@@ -277,6 +270,7 @@ def test_version_and_quiet(tmp_path, capsys):
         assert capsys.readouterr().err == ""
 
 
+@pytest.mark.slow
 def test_advise_seed_and_json(tmp_path, capsys):
     base = ["advise", "--h", "0.1", "--methods", "E,AB4", "--T", "10", "--seeds", "1",
             "--format", "json", "--out", str(tmp_path)]  # fmt: skip
@@ -331,6 +325,7 @@ def _read_all(fd: int, proc: subprocess.Popen[bytes], timeout: float) -> bytes:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pty")
 def test_a_terminal_hears_from_the_command_before_the_kernels_load(tmp_path):
     """The start-up line comes before numba or the models are imported (so also
@@ -361,6 +356,7 @@ def test_a_terminal_hears_from_the_command_before_the_kernels_load(tmp_path):
 #    malloc setting -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_non_plotting_commands_do_not_import_matplotlib(tmp_path):
     cfg = write_sweep(tmp_path / "s.toml", h="[0.02]", seeds=1)
     db = tmp_path / "r.db"
@@ -385,8 +381,9 @@ def test_non_plotting_commands_do_not_import_matplotlib(tmp_path):
 def test_a_numerical_failure_is_one_line_with_its_own_status(capsys, monkeypatch):
     """A rule that cannot solve its step on these inputs (advise running T at large h
     hit this) is not an 'internal error': exit 7, one line that says what to change."""
-    from sampledyn.cli import EXIT_NUMERICAL, _methods
-    from sampledyn.methods import ConvergenceError
+    from sampledyn.cli import _methods
+    from sampledyn.cli._status import EXIT_NUMERICAL
+    from sampledyn.exceptions import ConvergenceError
 
     def fails(args):
         raise ConvergenceError("Tustin's Newton iteration did not converge; use a smaller h.")
@@ -408,7 +405,7 @@ def test_a_numerical_failure_is_one_line_with_its_own_status(capsys, monkeypatch
         (["reproduce", "fig3", "--T", "inf"], "`T` must be a finite number, got inf"),
         (["reproduce", "fig2", "--T", "nan"], "`T` must be a finite number, got nan"),
         (["advise", "--vehicle", "bluerov2_heavy", "--T", "inf", "--no-validate"],
-         "`T` must be a finite number of seconds > 0, got inf"),
+         "--T: reference run length `T` must be a finite number, got inf"),
         (["advise", "--vehicle", "bluerov2_heavy", "--T", "0.05", "--no-validate"],
          "`T` = 0.05 s is too short for h = 0.1 s"),
         (["advise", "--vehicle", "bluerov2_heavy", "--workers", "0"],
@@ -430,12 +427,13 @@ def test_fig7_of_another_vehicle_does_not_overwrite_the_default_output():
     assert fig7_out("/home/me/my_rov.toml") == "out/fig7_my_rov"
 
 
-def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(capsys):
+@pytest.mark.slow
+def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(tmp_path, capsys):
     """The h_max search runs RK4 at periods up to 2 s, where a stage leaves the data's
     pitch range (the RexROV's Fig. 6 run stays within 22 deg; stages reached 85 deg and
     the vehicle warned as if the data had): no pitch warning, the domain says the truth."""
     assert main(["advise", "--vehicle", "rexrov", "--input", "fig6", "--h", "0.1",
-                 "--methods", "RK4", "--no-validate"]) == 0  # fmt: skip
+                 "--methods", "RK4", "--no-validate", "--out", str(tmp_path)]) == 0  # fmt: skip
     out, err = capsys.readouterr()
     assert "pitch |theta|" not in err
     theta = float(re.search(r"\|theta\|<=([0-9.]+) deg", out).group(1))
@@ -452,10 +450,11 @@ def test_advise_does_not_blame_the_data_for_an_rk_stage_at_a_large_trial_period(
         (["reproduce", "closed-loop", "--T", "50"], EXIT_BAD_VALUE,
          "`after` must be in [0, T=50) s, got 100.0"),
         (["reproduce", "multistep", "--T", "-3"], EXIT_BAD_VALUE,
-         "`T` must be > 0, got -3.0"),
-        (["reproduce", "fig3", "--seed", "-1"], EXIT_BAD_VALUE, "`seed` (--seed)"),
+         "--T: `T` must be a finite number > 0, got -3.0"),
+        (["reproduce", "fig3", "--seed", "-1"], EXIT_BAD_VALUE,
+         "--seed: the multilevel input's `seed` must be an int >= 0, got -1"),
         (["advise", "--vehicle", "bluerov2_heavy", "--seed", "-1"], EXIT_BAD_VALUE,
-         "`base_seed` (--seed) must be an int >= 0"),
+         "--seed: `base_seed` must be an int >= 0"),
         (["advise", "--vehicle", "bluerov2_heavy", "--methods", ""], EXIT_USAGE,
          "`--methods` is empty"),
         (["evaluate", "--data", str(EXAMPLE_LOG), "--vehicle", "bluerov2_heavy",
@@ -479,6 +478,7 @@ def test_an_empty_file_is_no_store_to_read(tmp_path, capsys):
     assert empty.stat().st_size == 0
 
 
+@pytest.mark.slow
 def test_closed_loop_takes_the_vehicles_its_help_lists(tmp_path, capsys):
     assert main(["-q", "reproduce", "closed-loop", "--vehicle", "rexrov,bluerov2_heavy",
                  "--h", "0.5", "--methods", "RK4", "--seeds", "1", "--T", "20", "--after", "5",

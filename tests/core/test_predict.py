@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import sampledyn as sd
-from sampledyn.methods import ConvergenceError
+from sampledyn.exceptions import ConvergenceError
 
 
 @pytest.fixture(scope="module")

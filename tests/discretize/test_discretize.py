@@ -8,11 +8,31 @@ import pytest
 import sympy as sp
 
 import sampledyn as sd
-from sampledyn.discretize import LinearLaw, casadi_rhs, discretize, run_loop
+from sampledyn._discretize import LinearLaw, discretize, run_loop
+from sampledyn._discretize._casadi import casadi_rhs
+from sampledyn.methods import DiscreteTimeSystem, Predictor, StepProgram
 from sampledyn.models import AttitudeHold, AUVLike, SymbolicModel, load_vehicle
 from sampledyn.signals import fig6_thrusters
 
-RULES = ("E", "AB2", "AB4", "ABu4", "RK4", "T")
+
+def _is_discrete_time_system(name: str) -> bool:
+    """What the rule object says: it is a system z+ = F(z, u) if it states its step
+    (the DiscreteTimeSystem protocol of sampledyn.methods)."""
+    return isinstance(sd.get_method(name), DiscreteTimeSystem)
+
+
+# Every registered rule that is a discrete-time system: a new rule enrols itself.
+RULES = tuple(n for n in sd.available_methods() if _is_discrete_time_system(n))
+OTHERS = tuple(n for n in sd.available_methods() if n not in RULES)
+# ... those that also predict on sampled data (ZOH does not: it is a system only) ...
+PREDICTORS = tuple(n for n in RULES if isinstance(sd.get_method(n), Predictor))
+# ... and those whose step is arithmetic written once (a StepProgram): its linearisation
+# is the step's derivative everywhere and CasADi's view the same arithmetic. ZOH's step
+# integrates the flow to a tolerance and its linearisation is the flow's derivative at
+# a trim only: tests/discretize/test_zoh.py checks both.
+PROGRAMS = tuple(n for n in RULES if isinstance(sd.get_method(n).discrete_step, StepProgram))
+# A step that integrates the flow (ZOH) takes a DOP853 run per step: slow over a run.
+RULES_SLOW_FLOWS = [n if n in PROGRAMS else pytest.param(n, marks=pytest.mark.slow) for n in RULES]
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +64,7 @@ def _linear_model(seed: int = 0):
 # ------------------------------------------------------------------ the system
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PREDICTORS)
 def test_rollout_one_step_is_predict(rexrov, measured, rule):
     """k = 1 equals sd.predict on the same noisy data: bit for bit for the explicit
     rules (same arithmetic), to Newton's tolerance for Tustin; NaN rows alike."""
@@ -58,7 +78,7 @@ def test_rollout_one_step_is_predict(rexrov, measured, rule):
         np.testing.assert_array_equal(got, want)
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", RULES_SLOW_FLOWS)
 def test_rollout_is_k_steps(rexrov, measured, rule):
     """Row n of rollout(k) is k applications of step from the z of the data at n - k,
     with the measured inputs; rows without history are NaN."""
@@ -92,6 +112,20 @@ def test_layouts_and_sizes(rexrov):
         assert d.layout == (("x", 0),) and d.nz == 12
     assert discretize(rexrov, "AB4", 0.1).nz == 48
     assert discretize(rexrov, "AB4", 0.1, delay=True).nz == 48 + 8
+
+
+def test_every_kind_of_rule_is_enrolled():
+    """The families the docs name as discrete-time systems are among the enrolled rules
+    (the enrolment asks the objects; this guards against it enrolling nothing)."""
+    families = {sd.get_method(n).family for n in RULES}
+    assert {"AB", "ABu", "RK", "T", "ZOH"} <= families and "E" in RULES
+    assert "ABj3" in OTHERS and set(PROGRAMS) <= set(PREDICTORS)
+
+
+@pytest.mark.parametrize("rule", OTHERS)
+def test_every_rule_that_is_no_discrete_time_system_is_refused(rexrov, rule):
+    with pytest.raises(ValueError, match=f"`method` {rule!r}"):
+        discretize(rexrov, rule, 0.1)
 
 
 def test_rules_without_a_state_space_form_are_refused(rexrov):
@@ -160,7 +194,7 @@ def _fd(fun, v, eps):
     return np.stack(cols, axis=1)
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PROGRAMS)
 @pytest.mark.parametrize("delay", [False, True])
 def test_linearize_against_central_differences(rexrov, measured, rule, delay):
     """(A_d, B_d) from the analytic Jacobians against central differences of step, on
@@ -188,7 +222,7 @@ def test_steady_state_is_a_fixed_point(rule):
     np.testing.assert_allclose(d.step(z, u), z, rtol=0, atol=1e-13)
 
 
-@pytest.mark.parametrize("rule", ("E", "AB2", "AB4", "ABu4", "RK4", "T"))
+@pytest.mark.parametrize("rule", PREDICTORS)
 def test_noise_gain_is_the_prediction_jacobian(rule):
     """On constant data at an equilibrium, the noise gain's first block row is the
     rule's own prediction Jacobian d x_hat / d x_{n-i} (methods' prediction_jacobians)."""
@@ -240,7 +274,7 @@ def test_to_control_linear_is_ready_for_dlqr(rexrov):
     assert np.abs(E).max() < 1
 
 
-@pytest.mark.parametrize("rule", RULES)
+@pytest.mark.parametrize("rule", PROGRAMS)
 @pytest.mark.parametrize("delay", [False, True])
 def test_to_casadi_equals_step(rexrov, rule, delay):
     """F(z, u) of CasADi equals step to 1e-12 (relative to the state's size) at random
@@ -286,7 +320,8 @@ def test_closed_loop_tracks_as_the_design_predicts(rexrov):
     """Noise-free, tiny h: the LQR (designed on RK4) run on the exact nonlinear plant
     follows the linear closed-loop prediction on the exact zero-order-hold model, and
     the gap is second order in the initial error (it falls 4x when that halves)."""
-    from sampledyn.experiments import design_lqr, trim
+    from sampledyn.experiments import trim
+    from sampledyn.experiments._closed_loop import design_lqr
 
     h = 0.02
     x, u = trim(rexrov, 0.5, 5.0, 0.5)
@@ -317,7 +352,8 @@ def test_compiled_law_equals_a_python_controller(rexrov):
     """The LinearLaw evaluated in compiled code gives the run a Python callable with
     the same law gives (noise included), for a history rule (AB2: z holds f at the
     previous measured sample)."""
-    from sampledyn.experiments import design_lqr, trim
+    from sampledyn.experiments import trim
+    from sampledyn.experiments._closed_loop import design_lqr
 
     x, u = trim(rexrov, 0.5, 5.0, 0.5)
     design = design_lqr(rexrov, "AB2", 0.5, x, u)
@@ -359,13 +395,14 @@ def test_delay_applies_the_previous_command(rexrov):
 
 def test_law_refuses_a_wrong_gain(rexrov):
     d = discretize(rexrov, "AB2", 0.1)
-    with pytest.raises(ValueError, match="`gain` must be finite with shape"):
+    with pytest.raises(ValueError, match=r"`gain` must have shape \(8, 24\), got \(8, 12\)"):
         LinearLaw(d, np.zeros((8, 12)), np.zeros(24), np.zeros(8))
 
 
 # ------------------------------------------------------------------ the studies
 
 
+@pytest.mark.slow
 def test_reproduce_closed_loop_and_multistep(tmp_path):
     from sampledyn.cli import main
 
@@ -393,7 +430,7 @@ def test_state_from_history_equals_state_from_data(rexrov, measured):
 
 
 def test_envelope_stops_a_diverging_loop(rexrov):
-    from sampledyn.discretize import EnvelopeExceeded
+    from sampledyn.exceptions import EnvelopeExceeded
 
     lo = np.full(12, -np.inf)
     hi = np.full(12, np.inf)
@@ -412,8 +449,8 @@ def test_noise_gain_feeds_dlqe(rexrov):
     """A Kalman filter for the AB2 model from its noise gain: python-control's dlqe
     accepts (A_d, G, C) and returns a stable estimator."""
     control = pytest.importorskip("control")
+    from sampledyn._noise import noise_amplitudes
     from sampledyn.experiments import trim
-    from sampledyn.noise import noise_amplitudes
 
     x, u = trim(rexrov, 0.5, 5.0, 0.5)
     d = discretize(rexrov, "AB2", 0.1)
@@ -435,6 +472,7 @@ def _spring(t, x, u, p, out):
     out[1] = -p[0] * x[0] - p[1] * x[1] + u[0]
 
 
+@pytest.mark.slow
 def test_function_model_kernels_compile_in_process():
     """A FunctionModel's kernel cannot be imported by name: the discrete model is
     compiled in this process with the kernel injected, and steps like RK4 by hand."""

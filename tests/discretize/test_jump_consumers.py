@@ -14,7 +14,7 @@ x, y, u = sp.symbols("x y u")
 
 def test_casadi_exports_piecewise_as_if_else():
     pytest.importorskip("casadi")
-    from sampledyn.discretize import casadi_rhs
+    from sampledyn._discretize._casadi import casadi_rhs
 
     model = SymbolicModel(
         [x, y],

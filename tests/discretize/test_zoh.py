@@ -10,8 +10,10 @@ from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
 import sampledyn as sd
-from sampledyn.discretize import discretize
+from sampledyn._discretize import discretize
+from sampledyn.experiments._auv import fig2_methods, fig3_methods
 from sampledyn.methods import DiscreteTimeSystem, Predictor, get_method
+from sampledyn.methods._exact import zoh_matrices
 from sampledyn.models import SymbolicModel, load_vehicle
 
 
@@ -37,7 +39,7 @@ def test_zoh_is_a_discrete_time_system_and_no_predictor():
     m = get_method("ZOH")
     assert isinstance(m, DiscreteTimeSystem) and not isinstance(m, Predictor)
     assert (m.family, m.order, m.history) == ("ZOH", None, 1)
-    assert "ZOH" not in sd.experiments.fig2_methods() + sd.experiments.fig3_methods()
+    assert "ZOH" not in fig2_methods() + fig3_methods()
     model, _, _ = _linear_model()
     data = sd.Trajectory(
         t=0.1 * np.arange(5), x=np.zeros((5, 3)), u=np.zeros((5, 2)), h=0.1,
@@ -66,7 +68,7 @@ def test_step_is_the_exact_flow_on_a_linear_model():
     model, A, B = _linear_model(1)
     h = 0.2
     d = discretize(model, "ZOH", h)
-    ad, bd = sd.methods.zoh_matrices(A, B, h)
+    ad, bd = zoh_matrices(A, B, h)
     rng = np.random.default_rng(2)
     for _ in range(3):
         x, u = rng.normal(size=3), rng.normal(size=2)

@@ -7,7 +7,10 @@ import os
 
 import pytest
 
-from sampledyn.experiments.sweep import DASK_WORKER_ENVIRON, check_dask_workers, local_cluster
+from sampledyn.experiments.sweep import local_cluster
+from sampledyn.experiments.sweep._backends import DASK_WORKER_ENVIRON, check_dask_workers
+
+pytestmark = pytest.mark.slow  # a dask cluster of worker processes
 
 distributed = pytest.importorskip("distributed")
 
@@ -16,7 +19,20 @@ def _environ(client):
     return client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_")
 
 
-def test_local_cluster_workers_run_without_the_malloc_setting(monkeypatch):
+@pytest.fixture
+def environ_restored():
+    """distributed < 2024.8 applies a nanny's pre-spawn environment to the parent's
+    os.environ (OMP/MKL/OPENBLAS_NUM_THREADS=1, PYTHONHASHSEED, ...): restore it, or
+    every process a later test starts runs single-threaded BLAS, whose sums round
+    otherwise than this process's (cells of a killed run then differ in the last bits
+    from those computed here)."""
+    before = dict(os.environ)
+    yield
+    os.environ.clear()
+    os.environ.update(before)
+
+
+def test_local_cluster_workers_run_without_the_malloc_setting(monkeypatch, environ_restored):
     assert "MALLOC_TRIM_THRESHOLD_" in DASK_WORKER_ENVIRON
     # A nanny run in this process leaves the variable in its environment (as one does
     # for the plain cluster below): local_cluster must not pass it on either.

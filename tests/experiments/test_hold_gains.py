@@ -8,8 +8,11 @@ import pytest
 
 from sampledyn.cli import main
 from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_USAGE
-from sampledyn.experiments import FIG7_STUDY_FILE, ROVStudy
-from sampledyn.experiments.sweep import SweepConfig, SweepConfigError, plan_study
+from sampledyn.exceptions import SweepConfigError
+from sampledyn.experiments import ROVStudy
+from sampledyn.experiments._rov import FIG7_STUDY_FILE
+from sampledyn.experiments.sweep import SweepConfig
+from sampledyn.experiments.sweep._plan import plan_study
 from sampledyn.models import AttitudeHold, load_vehicle
 
 _HOLD = "roll_pitch_hold"
@@ -76,7 +79,12 @@ def test_reproduce_fig7_hold_gains(tmp_path, capsys):
 @pytest.mark.parametrize(
     "extra, status, message",
     [
-        (["--no-attitude-hold", "--hold-gains", "1,2"], EXIT_BAD_VALUE, "--no-attitude-hold"),
+        (
+            ["--no-attitude-hold", "--hold-gains", "1,2"],
+            EXIT_BAD_VALUE,
+            "--hold-gains: `hold_gains` are gains of the attitude hold, and `attitude_hold` "
+            "(--attitude-hold) switches it off",
+        ),
         (["--hold-gains", "40"], EXIT_BAD_VALUE, "two numbers > 0"),
         (["--hold-gains", "40,-6"], EXIT_BAD_VALUE, "got 40,-6"),
         (["--hold-gains", "40,nan"], EXIT_BAD_VALUE, "two numbers > 0"),

@@ -7,10 +7,13 @@ import numpy as np
 import pytest
 
 import sampledyn as sd
-from sampledyn.experiments import ROVStudy, fig7_vehicle, motion_summary, run_rov_study
-from sampledyn.noise import noise_amplitudes
-from sampledyn.report import fig7_table, norm_evidence, ratio_phrase
-from sampledyn.signals import FIG6_TABLE
+from sampledyn._noise import noise_amplitudes
+from sampledyn.experiments import ROVStudy
+from sampledyn.experiments._rov import fig7_vehicle, run_rov_study
+from sampledyn.experiments.sweep._summaries import motion_summary
+from sampledyn.report import fig7_table
+from sampledyn.report._fig7 import norm_evidence, ratio_phrase
+from sampledyn.signals._fig6 import FIG6_TABLE
 
 
 @pytest.fixture(scope="module")
@@ -151,7 +154,7 @@ def test_attitude_hold_jacobian_is_the_chain_rule(run):
     x, u = traj.x[k], traj.u[k]
     try:
         jac = model.jacobian(traj.t[k], x, u)
-    except sd.models.JacobianUnavailableError:
+    except sd.exceptions.JacobianUnavailableError:
         pytest.skip("Vehicle.input_jacobian (df/du) is not in this branch yet")
     step = 1e-6 * np.maximum(1.0, np.abs(x))
     fd = np.empty_like(jac)
@@ -206,6 +209,7 @@ def test_norm_evidence_identifies_the_norm():
     assert "AB1 ~ 76xAB4 (1.6e-05, 2.1e-07)" in table
 
 
+@pytest.mark.slow
 def test_small_rov_study_is_the_same_in_one_or_two_processes():
     study = ROVStudy(T=40.0, after=10.0, seeds=2, noise_pairs=((0, 0), (10, 2)),
                      methods=("AB1", "AB4", "RK4"))  # fmt: skip

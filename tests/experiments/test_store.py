@@ -18,18 +18,14 @@ from _faults import CLI, Unavailable, remount_readonly, tmpfs
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import EXIT_BAD_VALUE, EXIT_DISK, EXIT_FILE, main
-from sampledyn.experiments.sweep import (
-    APPLICATION_ID,
-    DEFAULT_MAX_CELLS,
-    NotAStoreError,
-    ResultStore,
-    SweepConfigError,
-    check_grid_size,
-    load_config,
-    plan_study,
-    run_sweep,
-)
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_DISK, EXIT_FILE
+from sampledyn.exceptions import NotAStoreError, SweepConfigError
+from sampledyn.experiments.sweep import load_config, run_sweep
+from sampledyn.experiments.sweep._config import DEFAULT_MAX_CELLS
+from sampledyn.experiments.sweep._plan import plan_study
+from sampledyn.experiments.sweep._run import check_grid_size
+from sampledyn.experiments.sweep._store import APPLICATION_ID, ResultStore
 
 
 def _snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
@@ -277,6 +273,7 @@ def test_full_disk_injected_is_one_line_and_keeps_the_finished_cells(tmp_path, c
     assert resumed.skipped == len(finished) and len(rows(db)) == resumed.planned
 
 
+@pytest.mark.slow
 def test_full_disk_on_a_small_tmpfs(tmp_path):
     media = tmp_path / "small"
     cfg = write_sweep(tmp_path / "s.toml", T=60.0, seeds=4)
@@ -326,6 +323,7 @@ def test_a_huge_grid_is_counted_by_arithmetic_and_refused_with_its_size(tmp_path
     check_grid_size(study, max_cells=n)  # a limit raised on purpose lets it through
 
 
+@pytest.mark.slow
 def test_a_grid_streams_in_the_memory_of_a_group(tmp_path):
     def peak_of(seeds: int) -> tuple[int, int]:
         cfg = load_config(write_sweep(tmp_path / f"g{seeds}.toml", h="[0.01]", seeds=seeds))
@@ -350,6 +348,7 @@ def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS")
 def test_cli_refuses_a_huge_grid_at_once_naming_size_and_limit(tmp_path):
     """The grid of the issue (21.6 M cells) and larger: refused at once, in bounded

@@ -10,7 +10,10 @@ import sys
 import pytest
 from _sweep_helpers import kill_when_stored, rows, write_sweep
 
-from sampledyn.experiments.sweep import load_config, plan_study, run_sweep
+from sampledyn.experiments.sweep import load_config, run_sweep
+from sampledyn.experiments.sweep._plan import plan_study
+
+pytestmark = pytest.mark.slow  # a real process, SIGKILLed
 
 # 92 groups of 5 methods, each about 10 ms: a few seconds of work.
 HEAVY = {

@@ -7,8 +7,11 @@ import pytest
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
-from sampledyn.cli import EXIT_UNAVAILABLE, main
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_UNAVAILABLE
 from sampledyn.experiments.sweep import run_sweep
+
+pytestmark = pytest.mark.slow  # worker processes and dask clusters
 
 distributed = pytest.importorskip("distributed")
 

@@ -22,11 +22,14 @@ from _faults import (
     write_grid,
 )
 
-from sampledyn.cli import EXIT_INTERRUPTED, EXIT_TERMINATED
+from sampledyn.cli._status import EXIT_INTERRUPTED, EXIT_TERMINATED
 
-pytestmark = pytest.mark.skipif(
-    not sys.platform.startswith("linux"), reason="process trees are read from /proc"
-)
+pytestmark = [
+    pytest.mark.slow,  # real processes, signals and kills
+    pytest.mark.skipif(
+        not sys.platform.startswith("linux"), reason="process trees are read from /proc"
+    ),
+]
 
 
 def _sweep(tmp_path, *extra):

@@ -11,8 +11,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sampledyn.cli import EXIT_BAD_VALUE, main
-from sampledyn.logs import LogFormatError, evaluate_log, read_log, synthetic_log
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE
+from sampledyn.exceptions import LogFormatError
+from sampledyn.logs import evaluate_log, read_log, synthetic_log
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 

@@ -14,9 +14,11 @@ import pytest
 from _log_fixtures import vehicle_without
 
 import sampledyn as sd
-from sampledyn.cli import EXIT_BAD_VALUE, main
-from sampledyn.logs import MAX_H_RATE, LogFormatError, evaluate_log, read_log
-from sampledyn.models import SingularPitchError
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE
+from sampledyn.exceptions import LogFormatError, SingularPitchError
+from sampledyn.logs import evaluate_log, read_log
+from sampledyn.logs._evaluate import MAX_H_RATE
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 
@@ -59,7 +61,7 @@ def test_a_time_column_in_the_wrong_unit_is_refused_with_the_fix(
     assert f"label it {fix}" in msg
     # the fastest time constant is the model's on the logged states (the time unit does
     # not enter the Jacobian), so h / tau scales with the mislabelled h
-    tau = sd.experiments.sweep.fastest_time_constant(vehicle, data.traj)
+    tau = sd.sensitivity.fastest_time_constant(vehicle, data.traj)
     assert f"is {h / tau:.3g} times" in msg and h / tau > MAX_H_RATE
     # the command line says the same in one line, before predicting
     err = _refused(capsys, log, "bluerov2_heavy", "--methods", "E,AB2")

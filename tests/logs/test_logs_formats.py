@@ -13,7 +13,9 @@ from scipy.spatial.transform import Rotation
 
 import sampledyn as sd
 from sampledyn.cli import main
-from sampledyn.logs import LogFormatError, read_log, t200_rpm
+from sampledyn.exceptions import LogFormatError
+from sampledyn.logs import read_log
+from sampledyn.logs._t200 import t200_rpm
 
 rosbags = pytest.importorskip("rosbags")
 pytest.importorskip("pymavlink")

@@ -12,8 +12,10 @@ import pytest
 
 import sampledyn as sd
 from sampledyn.cli import main
-from sampledyn.logs import LOG_FORMATS, LogFormatError, detect_format, read_log, t200_rpm
-from sampledyn.logs._t200 import T200_PWM_US, _table, t200_deadband
+from sampledyn.exceptions import LogFormatError
+from sampledyn.logs import LOG_FORMATS, detect_format, read_log
+from sampledyn.logs._synthetic import survey_input
+from sampledyn.logs._t200 import T200_PWM_US, _table, t200_deadband, t200_rpm
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -25,7 +27,7 @@ def _irregular_csv(path: Path) -> Path:
     rng = np.random.default_rng(3)
     t = np.concatenate([[0.0], np.cumsum(np.rint(rng.uniform(1, 34, 60)) * 0.01)])
     T = 0.01 * (round(t[-1] / 0.01) + 1)
-    traj = sd.simulate(vehicle, sd.logs.survey_input(vehicle), T=T, h=0.01)
+    traj = sd.simulate(vehicle, survey_input(vehicle), T=T, h=0.01)
     # the samples at the irregular stamps, from the exact run on a 0.01 s grid
     idx = np.rint(t / 0.01).astype(int)
     cols = {"t[s]": traj.t[idx]}

@@ -13,8 +13,10 @@ import pandas as pd
 import pytest
 
 import sampledyn as sd
-from sampledyn.cli import EXIT_BAD_VALUE, main
-from sampledyn.logs import LogFormatError, evaluate_log, log_from_frame, read_log
+from sampledyn.cli import main
+from sampledyn.cli._status import EXIT_BAD_VALUE
+from sampledyn.exceptions import LogFormatError
+from sampledyn.logs import evaluate_log, log_from_frame, read_log
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
 METHODS = "E,AB2,AB4,RK4,T"

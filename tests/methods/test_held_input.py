@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 import sampledyn as sd
-from sampledyn.experiments import fig2_methods
+from sampledyn.experiments._auv import fig2_methods
 from sampledyn.methods import ab_coefficients, available_methods, get_method
 from sampledyn.methods._jump import backward_weights
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from sampledyn.discretize import discretize
+from sampledyn._discretize import discretize
 from sampledyn.methods import Combination, DiscreteTimeSystem, Stage, StepProgram, get_method
 from sampledyn.models import SymbolicModel
 

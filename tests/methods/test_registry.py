@@ -11,7 +11,9 @@ from pathlib import Path
 import pytest
 
 import sampledyn
-from sampledyn.methods import BUILT_IN, TABLEAUX, available_methods, families, get_method
+from sampledyn.methods import available_methods, families, get_method
+from sampledyn.methods._registry import BUILT_IN
+from sampledyn.methods._runge_kutta import TABLEAUX
 
 ROOT = Path(sampledyn.__file__).parent
 
@@ -26,9 +28,9 @@ def test_a_fresh_process_lists_every_family_without_importing_them():
         "from sampledyn.methods import available_methods, get_method\n"
         "names = available_methods()\n"
         "print(len(names), 'Ee' in names, 'ABe6' in names, 'ZOH' in names,"
-        " 'sampledyn.estimate' in sys.modules)\n"
+        " 'sampledyn._estimate' in sys.modules)\n"
         "get_method('ABe2')\n"
-        "print('sampledyn.estimate' in sys.modules)\n"
+        "print('sampledyn._estimate' in sys.modules)\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
@@ -40,7 +42,7 @@ def test_every_lazy_entry_names_a_rule_module_of_methods_or_estimate():
     for fam in families():
         if isinstance(fam.factory, str):
             module = fam.factory.partition(":")[0]
-            assert module.startswith(("sampledyn.methods.", "sampledyn.estimate.")), fam.key
+            assert module.startswith(("sampledyn.methods.", "sampledyn._estimate.")), fam.key
         assert get_method(fam.names()[0]).name == fam.names()[0]
 
 

@@ -25,19 +25,18 @@ from scipy.linalg import expm
 from scipy.optimize import minimize
 
 import sampledyn as sd
+from sampledyn._local_errors import error_norms
 from sampledyn.methods import (
     Estimator,
     Predictor,
     ab_coefficients,
-    ab_gain_factor,
     available_methods,
-    collocation_weights,
     get_method,
-    lagrange_integrals,
     stencil_steps,
 )
-from sampledyn.methods._jump import backward_weights
-from sampledyn.methods._nodes import pattern_nodes
+from sampledyn.methods._adams import ab_gain_factor
+from sampledyn.methods._jump import backward_weights, collocation_weights
+from sampledyn.methods._nodes import lagrange_integrals, pattern_nodes
 
 PREDICTORS = [n for n in available_methods() if isinstance(get_method(n), Predictor)]
 VARIABLE = [
@@ -302,7 +301,7 @@ def test_norms_are_unchanged_on_a_uniform_grid():
     e = rng.standard_normal((200, 3))
     e[:4] = np.nan
     sq = (e[4:] ** 2).sum(axis=1)
-    got = sd.errors.error_norms(e, t)
+    got = error_norms(e, t)
     assert got["rms"] == float(np.sqrt(sq.sum() / sq.size))
     assert got["mean"] == float(np.sqrt(sq).mean())
     assert got["l2"] == float(np.sqrt(sq.sum()))
@@ -318,7 +317,7 @@ def test_norms_weight_each_sample_by_its_step_on_non_uniform_time():
     span = np.diff(t)  # sample n spans [t_{n-1}, t_n]
     sq = (e[1:] ** 2).sum(axis=1)
     w = span / span.mean()
-    got = sd.errors.error_norms(e, t)
+    got = error_norms(e, t)
     assert got["rms"] == pytest.approx(math.sqrt((span * sq).sum() / span.sum()), rel=1e-13)
     assert got["mean"] == pytest.approx((span * np.sqrt(sq)).sum() / span.sum(), rel=1e-13)
     assert got["l2"] == pytest.approx(math.sqrt((w * sq).sum()), rel=1e-13)

@@ -12,7 +12,8 @@ from _vehicle_reference import central_differences, random_states, reference_f
 
 import sampledyn as sd
 from sampledyn.models import Vehicle, builtin_vehicles, load_vehicle
-from sampledyn.signals import FIG6_TABLE, fig6_thrusters
+from sampledyn.signals import fig6_thrusters
+from sampledyn.signals._fig6 import FIG6_TABLE
 
 # uuv_simulator, uuv_control/uuv_thruster_manager/config/rexrov/TAM.yaml: the thrust
 # allocation in the ROS base_link frame (x forward, y left, z up), rows X Y Z K M N,

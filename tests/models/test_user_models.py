@@ -24,8 +24,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 # ---------------------------------------------------------- the AUV-like system
 # The hand-written kernels that the symbolic AUVLike replaced (eqs. (9)-(10)); kept
-# here as the independent reference.
-@njit(RHS_SIG, cache=True)
+# here as the independent reference. Not cached: numba would write the cache next to
+# this file, into the repository (tests write below tmp_path only).
+@njit(RHS_SIG)
 def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
@@ -35,7 +36,7 @@ def _auv_rhs(t, x, u, p, out):  # pragma: no cover - compiled
     out[1] = alpha * vel * vel + beta * vel + gamma * vel * abs(vel) + delta * s2 + u[0]
 
 
-@njit(JAC_SIG, cache=True)
+@njit(JAC_SIG)
 def _auv_jac(t, x, u, p, out):  # pragma: no cover - compiled
     alpha, beta, gamma, delta = p[0], p[1], p[2], p[3]
     pos = x[0]
@@ -276,6 +277,7 @@ _CACHE_SCRIPT = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_second_process_loads_the_kernels_from_the_disk_cache(tmp_path):
     env = dict(os.environ, SAMPLEDYN_CACHE_DIR=str(tmp_path), PYTHONPATH=str(REPO))
     env.pop("NUMBA_CACHE_DIR", None)
@@ -296,6 +298,7 @@ def test_second_process_loads_the_kernels_from_the_disk_cache(tmp_path):
     print(f"first {first['seconds']:.2f} s, second {second['seconds']:.2f} s")
 
 
+@pytest.mark.slow
 def test_unwritable_cache_dir_falls_back_with_a_warning(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
@@ -314,6 +317,7 @@ def test_unwritable_cache_dir_falls_back_with_a_warning(tmp_path):
     assert "SAMPLEDYN_CACHE_DIR" in message and "not writable" in message
 
 
+@pytest.mark.slow
 def test_import_sampledyn_does_not_import_sympy():
     code = "import sys, sampledyn; print('sympy' in sys.modules)"
     env = dict(os.environ, PYTHONPATH=str(REPO))
@@ -417,15 +421,15 @@ def test_function_model_both_forms_agree_and_run():
 def test_function_model_without_jacobian_says_how_to_supply_one():
     model = FunctionModel(_spring_returning, 2, 1, params={"k": 4.0, "c": 0.3})
     x, u = np.ones((3, 2)), np.ones((3, 1))
-    with pytest.raises(sd.models.JacobianUnavailableError) as info:
+    with pytest.raises(sd.exceptions.JacobianUnavailableError) as info:
         model.jacobian(0.0, x, u)
     message = str(info.value)
     assert "jac=" in message and "SymbolicModel" in message and "finite differences" in message
     signal = sd.signals.Multilevel(low=-1.0, high=1.0, hold=0.5, seed=0)
     traj = sd.simulate(model, signal, T=2.0, h=0.05, x0=np.array([1.0, 0.0]))
-    with pytest.raises(sd.models.JacobianUnavailableError, match="jac="):
+    with pytest.raises(sd.exceptions.JacobianUnavailableError, match="jac="):
         sd.predict("T", model, traj)
-    with pytest.raises(sd.models.JacobianUnavailableError, match="input_jac="):
+    with pytest.raises(sd.exceptions.JacobianUnavailableError, match="input_jac="):
         model.input_jacobian(0.0, x, u)
 
 
@@ -517,7 +521,7 @@ def test_closed_loop_around_a_function_model_needs_its_input_jacobian():
     np.testing.assert_allclose(with_ju.jacobian(0.0, np.ones(2), [0.0]), [[0, 1], [-5, -1.5]])
     without = ClosedLoop(FunctionModel(f, 2, 1, jac=jx, params={"k": 2.0}), law)
     np.testing.assert_allclose(without.f(0.0, np.ones(2), np.zeros(1)), [1.0, -6.5])
-    with pytest.raises(sd.models.JacobianUnavailableError, match="input Jacobian"):
+    with pytest.raises(sd.exceptions.JacobianUnavailableError, match="input Jacobian"):
         without.jacobian(0.0, np.ones(2), [0.0])
 
 

@@ -12,15 +12,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from sampledyn.models import (
-    Vehicle,
-    builtin_vehicles,
-    load_vehicle,
+from sampledyn.models import Vehicle, builtin_vehicles, load_vehicle
+from sampledyn.models._rigid_body import (
+    check_pitch,
     rotation_jacobian,
     rotation_jacobian_inverse,
     thruster_allocation,
 )
-from sampledyn.models._rigid_body import check_pitch
 
 BUILTIN_TEXT = (resources.files("sampledyn.models") / "vehicles" / "bluerov2_heavy.toml").read_text(
     encoding="utf-8"

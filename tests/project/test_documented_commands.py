@@ -92,7 +92,11 @@ def _fresh(command: str, workdir: Path) -> str:
     return proc.stdout
 
 
-@pytest.mark.parametrize("command", COMMANDS)
+@pytest.mark.parametrize(
+    "command",
+    # a command that runs in a fresh process (below) is slow
+    [pytest.param(c, marks=pytest.mark.slow) if "--estimate" in c else c for c in COMMANDS],
+)
 def test_documented_command_runs(workdir, command, monkeypatch, capsys):
     from sampledyn.cli import main
 

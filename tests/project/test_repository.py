@@ -62,3 +62,40 @@ def test_git_ignores_what_the_readme_commands_write():
         if res.returncode == 128:
             pytest.skip(f"not a git checkout: {res.stderr.decode().strip()}")
         assert res.returncode == 0, f"{path} (written by a README command) is not ignored"
+
+
+README_LIMIT = 12_000  # characters: the front door, not the manual (the rest is in docs/)
+
+
+def test_the_readme_is_a_front_door():
+    text = (ROOT / "README.md").read_text()
+    assert len(text) <= README_LIMIT, f"README.md has {len(text)} characters; move text to docs/"
+    for command in ("pip install . && sampledyn reproduce fig7",
+                    "pip install '.[test]' && pytest", 'pytest -m "not slow"'):  # fmt: skip
+        assert command in text, command
+
+
+def _anchor(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading."""
+    slug = re.sub(r"[^\w\- ]", "", heading.strip().lower())
+    return slug.replace(" ", "-")
+
+
+def _anchors(path: Path) -> set[str]:
+    return {_anchor(m) for m in re.findall(r"^#+ (.+)$", path.read_text(), re.MULTILINE)}
+
+
+def test_every_relative_link_of_the_docs_resolves():
+    pages = [ROOT / "README.md", ROOT / "examples" / "README.md",
+             *sorted((ROOT / "docs").glob("*.md"))]  # fmt: skip
+    broken = []
+    for page in pages:
+        for target in re.findall(r"\]\(([^)\s]+)\)", page.read_text()):
+            if re.match(r"[a-z]+:", target):
+                continue  # http(s), mailto
+            path, _, anchor = target.partition("#")
+            dest = (page.parent / path).resolve() if path else page
+            if not dest.exists() or (anchor and dest.suffix == ".md"
+                                     and anchor not in _anchors(dest)):  # fmt: skip
+                broken.append(f"{page.relative_to(ROOT)}: {target}")
+    assert not broken, broken

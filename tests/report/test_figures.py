@@ -14,8 +14,9 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from sampledyn.experiments import PAPER_FIG7
-from sampledyn.report import _auv_figs, _fig7, _sweep_figs, fig7_table, format_grid
+from sampledyn.experiments._paper_fig7 import PAPER_FIG7
+from sampledyn.report import _auv_figs, _fig7, _sweep_figs, fig7_table
+from sampledyn.report._tables import format_grid
 
 UNITS = ("(m)", "(rad)", "(m/s)", "(rad/s)")
 

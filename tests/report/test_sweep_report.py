@@ -84,6 +84,7 @@ def _figures(dom: str) -> tuple[int, int, list[int]]:
     return int(total.group(1)), int(loaded.group(1)), widths
 
 
+@pytest.mark.slow  # a headless Chromium process
 def test_report_loads_in_a_headless_browser_with_every_figure(report, tmp_path):
     browser = _browser()
     pngs = sorted(p.name for p in (report / "figures").glob("*.png"))
@@ -103,6 +104,7 @@ def test_report_loads_in_a_headless_browser_with_every_figure(report, tmp_path):
     assert dom.count("<h2>Study ") == 2
 
 
+@pytest.mark.slow  # a headless Chromium process
 def test_browser_check_sees_a_missing_figure(report, tmp_path):
     """The same check fails when a figure does not load."""
     browser = _browser()

@@ -18,13 +18,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sampledyn as sd
+from sampledyn._noise import noise_amplitudes
 from sampledyn.experiments import inertia_sensitivity, monte_carlo_check
-from sampledyn.noise import noise_amplitudes
+from sampledyn.report._sensitivity_figs import plot_crossing
 from sampledyn.sensitivity import (
     Domain,
-    J_norm,
     disturbed_error_bound,
-    dJ_norm,
     error_constant,
     first_order_gain,
     gentle_input,
@@ -35,6 +34,7 @@ from sampledyn.sensitivity import (
     pitch_input,
     pitch_sensitivity,
 )
+from sampledyn.sensitivity._jacobians import J_norm, dJ_norm
 
 T_RUN = 60.0
 H = 0.1
@@ -344,7 +344,7 @@ def test_largest_h_meets_the_tolerance_and_is_monotone(vehicle, advices):
 
 
 def test_plot_crossing_writes_png(advices, tmp_path):
-    png = sd.report.plot_crossing(advices["tol"].curves, tmp_path / "c.png", h_mark=H)
+    png = plot_crossing(advices["tol"].curves, tmp_path / "c.png", h_mark=H)
     assert png.exists() and png.stat().st_size > 10_000
 
 
@@ -362,6 +362,7 @@ def test_bad_arguments_name_themselves(vehicle, runs):
         sd.advise(vehicle, H, 1.0, 1.0, rank_by="both")
 
 
+@pytest.mark.slow
 def test_cli_advise(tmp_path, capsys):
     from sampledyn.cli import main
 

@@ -34,3 +34,12 @@ def test_zero_order_hold():
     np.testing.assert_array_equal(zoh(np.array([0.0, 0.5, 1.0, 1.999, 2.5]))[:, 0], [5, 5, 6, 6, 7])
     with pytest.raises(ValueError, match="strictly increasing"):
         sd.signals.ZeroOrderHold(np.array([0.0, 0.0]), np.array([1.0, 2.0]))
+
+
+def test_multilevel_arguments():
+    with pytest.raises(ValueError, match="`low` < `high`"):
+        sd.signals.Multilevel(low=1.0, high=-1.0)
+    with pytest.raises(ValueError, match="`hold`"):
+        sd.signals.Multilevel(hold=0.0)
+    with pytest.raises(TypeError, match="`seed`"):
+        sd.signals.Multilevel(seed=1.5)  # type: ignore[arg-type]

@@ -28,6 +28,7 @@ from collections.abc import Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
+from ... import _checks as checks
 from ._cells import Chunk, Setup, SimPlan, compute_cells, prepare_shared
 from ._compute import ChunkResult, SimResult
 
@@ -144,8 +145,7 @@ def start_pool(setup: Setup, workers: int, warm_up_h: float | None = None) -> Pr
     period ``warm_up_h``); elsewhere they are spawned (fork is unsafe on macOS) and
     compile on their own.
     """
-    if workers < 1:
-        raise ValueError(f"`workers` must be >= 1, got {workers}.")
+    checks.count(workers, "workers")
     if sys.platform.startswith("linux"):
         if warm_up_h is not None:
             # Compile here once: the workers fork from this process and inherit the

@@ -31,7 +31,7 @@ from functools import lru_cache
 from typing import Any
 
 from ...methods import get_method, get_predictor
-from ...models import ClosedLoop
+from ...models import ClosedLoop, Model
 from ._norms import NormSpec
 
 __all__ = [
@@ -144,7 +144,7 @@ class Setup:
     the kind computed once for the whole study on the client (e.g. a trim).
     """
 
-    model: Any
+    model: Model
     signals: tuple[Any, ...]
     T: float
     after: float
@@ -170,7 +170,7 @@ class Setup:
 
     @property
     def plant(self) -> Any:
-        return self.model.plant if self.closed_loop else self.model
+        return self.model.plant if isinstance(self.model, ClosedLoop) else self.model
 
 
 class CellKind:
@@ -238,20 +238,20 @@ class CellKind:
         one measured trajectory (the norms of a prediction study)."""
         raise NotImplementedError
 
-    def setup_data(self, config: Any, model: Any) -> Any:
+    def setup_data(self, config: Any, model: Model) -> Any:
         """What the whole study shares, computed once on the client when it is
         planned (picklable); None by default."""
         return None
 
     def prepare(self, setup: Setup, sim: SimPlan) -> dict[str, Any]:
         """The shared part of the trajectories of ``sim``, once: traj_key ->
-        :class:`~sampledyn.experiments.sweep.SimResult` (``meta`` becomes the
+        :class:`~sampledyn.experiments.sweep._compute.SimResult` (``meta`` becomes the
         trajectory's stored row)."""
         raise NotImplementedError
 
     def compute(self, setup: Setup, shared: Any, chunk: Chunk) -> Any:
         """Every cell of ``chunk`` on the shared part ``shared`` of its trajectory:
-        a :class:`~sampledyn.experiments.sweep.ChunkResult` with one row per cell
+        a :class:`~sampledyn.experiments.sweep._compute.ChunkResult` with one row per cell
         (``key``, ``status``, ``seconds``, ``error``, ``warnings`` and ``values``: a
         dict of the kind's :attr:`columns`, empty or partial for a failed cell)."""
         raise NotImplementedError

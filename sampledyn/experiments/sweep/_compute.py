@@ -33,17 +33,18 @@ import time
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
+from ..._local_errors import local_errors
+from ..._noise import add_noise
+from ..._predict import predict
+from ..._simulate import simulate
 from ..._trajectory import Trajectory
-from ...errors import local_errors
-from ...methods import ConvergenceError, get_method
-from ...models import ClosedLoop
-from ...noise import add_noise
-from ...predict import predict
-from ...simulate import IntegrationError, simulate
+from ...exceptions import ConvergenceError, IntegrationError
+from ...methods import get_method
+from ...models import ClosedLoop, Model
 from ._cells import Chunk, Group, Setup, SimPlan
 from ._norms import NormSpec, measure, parse_norm
 from ._summaries import summarize_trajectory
@@ -100,7 +101,7 @@ def _messages(caught: list[warnings.WarningMessage]) -> str:
 
 
 def exact_samples(
-    model: Any, signal: Any, T: float, h: float, x0: Any = None, rtol: float = 1e-12
+    model: Model, signal: Any, T: float, h: float, x0: Any = None, rtol: float = 1e-12
 ) -> Trajectory:
     """The engine's exact samples of ``model`` under ``signal``: :func:`sampledyn.simulate`
     with ``rtol`` = ``atol``, certified. Studies that need the samples in hand (the
@@ -164,7 +165,7 @@ def simulate_trajectory(setup: Setup, sim: SimPlan) -> dict[str, SimResult]:
             reference_u = None
             if setup.closed_loop:
                 plant = setup.plant
-                applied = setup.model.applied_input(exact.t, exact.x, exact.u)
+                applied = cast(ClosedLoop, setup.model).applied_input(exact.t, exact.x, exact.u)
                 reference_u = exact.u
                 exact = exact.replace(
                     u=applied,
@@ -183,7 +184,7 @@ def simulate_trajectory(setup: Setup, sim: SimPlan) -> dict[str, SimResult]:
 
 
 def prediction_inputs(
-    model: Any, method: Any, measured: Trajectory, reference: Trajectory | None, signal: Any
+    model: Model, method: Any, measured: Trajectory, reference: Trajectory | None, signal: Any
 ) -> tuple[Any, Trajectory, Any]:
     """(model, data, signal) ``method`` predicts with (see the module docstring).
 

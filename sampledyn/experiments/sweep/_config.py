@@ -19,7 +19,7 @@ the values to cross::
     v_pct = [0, 2]
     # noise = [[0, 0], [2, 0]]   # ... or explicit (eta %, v %) pairs instead
     seeds = 10                   # 0..9, or a list of seeds
-    norm = "l2_over_n"           # or a list; see sampledyn.experiments.sweep.parse_norm
+    norm = "l2_over_n"           # or a list; see sampledyn.experiments.sweep._norms.parse_norm
     base_seed = 0                # optional
     distribution = "uniform"     # optional, or "gaussian"
     x0 = [1.0, 0.0]              # optional initial state (default: the model's)
@@ -46,7 +46,7 @@ Fig. 7 study tunes the roll-pitch hold for each vehicle this way, and
 Nothing is enumerated here: a count of seeds stays a ``range`` and crossed
 ``eta_pct``/``v_pct`` lists stay a :class:`NoiseGrid`, so a grid of any size is read
 in constant memory and its cells are counted by arithmetic
-(:attr:`sampledyn.experiments.sweep.Study.n_cells`).
+(:attr:`sampledyn.experiments.sweep._plan.Study.n_cells`).
 """
 
 from __future__ import annotations
@@ -59,8 +59,11 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ... import _checks as checks
+from ...exceptions import SweepConfigError
 from ...methods import families
-from ...models import FEEDBACK_LAWS, MODELS, is_model_file, model_names
+from ...models import FEEDBACK_LAWS, MODELS, Model
+from ...models._names import is_model_file, model_names
 from ...signals import INPUTS
 from ._cells import CellKind, get_cell_kind
 from ._norms import parse_norm
@@ -70,7 +73,6 @@ __all__ = [
     "DEFAULT_MAX_CELLS",
     "NoiseGrid",
     "SweepConfig",
-    "SweepConfigError",
     "check_time_grid",
     "load_config",
 ]
@@ -143,14 +145,6 @@ class NoiseGrid(Sequence[tuple[float, float]]):
         return int(pair in self)
 
 
-class SweepConfigError(ValueError):
-    """A bad sweep file; ``key`` names the offending entry."""
-
-    def __init__(self, key: str, message: str) -> None:
-        super().__init__(message)
-        self.key = key
-
-
 @dataclass(frozen=True)
 class SweepConfig:
     """A checked sweep grid (see the module docstring for the file format).
@@ -163,7 +157,7 @@ class SweepConfig:
     Attributes
     ----------
     vehicle : str
-        Built-in model name (:func:`sampledyn.models.model_names`) or absolute path
+        Built-in model name (:func:`sampledyn.models._names.model_names`) or absolute path
         of a vehicle file; with ``model`` given, a label of that model.
     inputs : tuple of Mapping[str, Any]
         ``{"name": <input of sampledyn.signals.INPUTS>, **parameters}`` per input
@@ -203,7 +197,7 @@ class SweepConfig:
     summaries : tuple of str
         Numbers stored with each trajectory (:data:`SUMMARIES`).
     kind : str
-        What a cell computes (:func:`sampledyn.experiments.sweep.available_cell_kinds`):
+        What a cell computes (:func:`sampledyn.experiments.sweep._cells.available_cell_kinds`):
         "prediction" (the default: one-step predictions measured by ``norms``),
         "closed_loop" or "multistep" (the controller studies).
     options : Mapping[str, Any]
@@ -244,7 +238,7 @@ class SweepConfig:
     summaries: tuple[str, ...] = ()
     kind: str = "prediction"
     options: Mapping[str, Any] = field(default_factory=dict)
-    model: Any = field(default=None, compare=False)
+    model: Model | None = field(default=None, compare=False)
     signals: tuple[Any, ...] | None = field(default=None, compare=False)
     reference: Any = field(default=None, compare=False)
     source: str = field(default="<dict>", compare=False)
@@ -337,6 +331,10 @@ def load_config(path: str | os.PathLike[str], *, vehicle: str | None = None) -> 
     return _parse(data, path.resolve().parent, str(path))
 
 
+# A grid's bad entry, of a wrong type or out of range, is a SweepConfigError.
+_GRID_ERRORS: dict[str, Any] = {"error": SweepConfigError, "types": SweepConfigError}
+
+
 def _where(src: str) -> str:
     return "" if src in ("", "<dict>") else f" in {src}"
 
@@ -345,16 +343,13 @@ def _nearby_divisor(T: float, h: float) -> float | None:
     """A round period near ``h`` (1, 2, 2.5, 4, 5 x 10^k) dividing ``T``, or None."""
     exp = math.floor(math.log10(h))
     candidates = [m * 10.0 ** (exp + e) for e in (-1, 0, 1) for m in (1, 2, 2.5, 4, 5)]
-    fits = [c for c in candidates if abs(T / c - round(T / c)) <= 1e-9 * (T / c)]
+    fits = [c for c in candidates if checks.integer_ratio(T, c) is not None]
     return min(fits, key=lambda c: abs(math.log(c / h)), default=None)
 
 
 def _number(key: str, value: Any, src: str, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise SweepConfigError(key, f"`{key}`{_where(src)} must be a finite number, got {value!r}.")
-    if positive and value <= 0:
-        raise SweepConfigError(key, f"`{key}`{_where(src)} must be > 0, got {value!r}.")
-    return float(value)
+    check = checks.positive if positive else checks.number
+    return check(value, key, where=_where(src), **_GRID_ERRORS)
 
 
 def _number_list(key: str, value: Any, src: str, *, positive: bool = False) -> tuple[float, ...]:
@@ -380,16 +375,10 @@ def check_time_grid(
     SweepConfigError
         naming the key (``T``, ``after`` or ``h``), its value and the fix.
     """
-    T = _number("T", T, src, positive=True)
-    after = _number("after", after, src)
-    if not 0 <= after < T:
-        raise SweepConfigError(
-            "after", f"`after`{_where(src)} must be in [0, T={T:g}) s, got {after}."
-        )
+    T, after = checks.time_window(T, after, where=_where(src), **_GRID_ERRORS)
     hs = _number_list("h", h, src, positive=True)
     for period in hs:
-        ratio = T / period
-        if abs(ratio - round(ratio)) > 1e-9 * ratio:
+        if checks.integer_ratio(T, period) is None:
             near = _nearby_divisor(T, period)
             hint = "" if near is None else f" (e.g. {near:g} s)"
             raise SweepConfigError(
@@ -446,7 +435,7 @@ def _kind(name: Any, src: str) -> CellKind:
         raise SweepConfigError("kind", f"`kind`{_where(src)}: {exc}") from exc
 
 
-def _vehicle_name(vehicle: Any, model: Any, src: str) -> str:
+def _vehicle_name(vehicle: Any, model: Model | None, src: str) -> str:
     if not isinstance(vehicle, str) or not vehicle.strip():
         raise SweepConfigError(
             "vehicle", f"`vehicle`{_where(src)} must be a string, got {vehicle!r}."
@@ -576,11 +565,7 @@ def _norm_texts(norms: Any, kind: CellKind, src: str) -> tuple[str, ...]:
 
 
 def _count(key: str, value: Any, src: str, *, least: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < least:
-        raise SweepConfigError(
-            key, f"`{key}`{_where(src)} must be an int >= {least}, got {value!r}."
-        )
-    return int(value)
+    return checks.count(value, key, least=least, where=_where(src), **_GRID_ERRORS)
 
 
 def _distribution(value: Any, src: str) -> str:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from ...models import close_loop, model_from_name
+from ...models._names import close_loop, model_from_name
 
 __all__ = ["build_model"]
 
@@ -22,7 +22,7 @@ def build_model(
     feedback: Mapping[str, Any] | None = None,
 ) -> Any:
     """The model of a sweep: a built-in model name or a vehicle file
-    (:func:`sampledyn.models.model_from_name`), with its net buoyancy set to
+    (:func:`sampledyn.models._names.model_from_name`), with its net buoyancy set to
     ``buoyancy_pct`` percent of its weight if given, and closed by the ``feedback``
     law if given (a :class:`sampledyn.models.ClosedLoop`)."""
     model = model_from_name(vehicle, buoyancy_pct)

@@ -5,7 +5,7 @@ A norm is written as a string::
 
     [noise:]KIND[(ARG, ...)][[UNIT, ...]][@MASK[(ARG, ...)]]
 
-* ``KIND``: a norm of :data:`sampledyn.errors.ERROR_NORMS` (``rms``, ``max``,
+* ``KIND``: a norm of :data:`sampledyn._local_errors.ERROR_NORMS` (``rms``, ``max``,
   ``l2_over_n``, ``l2``, ``mean``) of the per-sample Euclidean error norm, or
   ``exceeds(A, B)``: the number of samples whose position/angle error exceeds ``A``
   or whose rate error exceeds ``B`` (used to check a bound sample by sample).
@@ -35,9 +35,10 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import ERROR_NORMS, ErrorWindow, error_window, sums_of_squares
+from ..._local_errors import ERROR_NORMS, ErrorWindow, error_window, sums_of_squares
+from ..._noise import NOISE_REFERENCE
 from ...methods import Predictor, available_methods, get_method
-from ...noise import NOISE_REFERENCE
+from ...models import Model
 
 __all__ = [
     "NormSpec",
@@ -108,17 +109,17 @@ def away_from_kinks(x: np.ndarray, kink_states: tuple[int, ...], history: int) -
     return window == 0
 
 
-def _mask_jumps(clean: Any, model: Any, history: float | None = None) -> np.ndarray:
+def _mask_jumps(clean: Any, model: Model, history: float | None = None) -> np.ndarray:
     return away_from_jumps(clean.u, smooth_history() if history is None else int(history))
 
 
-def _mask_smooth(clean: Any, model: Any, history: float | None = None) -> np.ndarray:
+def _mask_smooth(clean: Any, model: Model, history: float | None = None) -> np.ndarray:
     kinks = tuple(getattr(model, "kink_states", ()) or ())
     n = smooth_history() if history is None else int(history)
     return away_from_jumps(clean.u, n) & away_from_kinks(clean.x, kinks, n)
 
 
-def _mask_pitch(clean: Any, model: Any, lo: float, hi: float, window: float = 5) -> np.ndarray:
+def _mask_pitch(clean: Any, model: Model, lo: float, hi: float, window: float = 5) -> np.ndarray:
     names = tuple(getattr(clean, "state_names", ()) or getattr(model, "state_names", ()))
     if "theta" not in names:
         raise ValueError(
@@ -213,7 +214,7 @@ class NormSpec:
         """True for norms that count samples (``exceeds``) instead of measuring them."""
         return self.kind in _COUNT_KINDS
 
-    def mask_of(self, clean: Any, model: Any) -> np.ndarray | None:
+    def mask_of(self, clean: Any, model: Model) -> np.ndarray | None:
         """The samples this norm keeps, shape (N,), or None for all."""
         if self.mask is None:
             return None

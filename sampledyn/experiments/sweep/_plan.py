@@ -30,8 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from ...models import ClosedLoop
-from ...signals import input_for
+from ... import _checks as checks
+from ...exceptions import ArgumentError
+from ...models import ClosedLoop, Model
+from ...signals._names import input_for
 from ._cells import (
     Cell,
     Chunk,
@@ -77,7 +79,7 @@ def _hash_numbers(values: np.ndarray) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def model_fingerprint(model: Any) -> str:
+def model_fingerprint(model: Model) -> str:
     """Hash of ``model.f`` at 16 fixed pseudo-random points, with its names and units."""
     rng = np.random.default_rng(20240607)
     x0 = np.asarray(getattr(model, "default_x0", np.zeros(model.nx)), dtype=float)
@@ -208,8 +210,7 @@ class Study:
 
     def chunks(self, cells: Sequence[Cell], groups_per_chunk: int) -> list[Chunk]:
         """Tasks for ``cells``: grouped by trajectory, then by (noise pair, seed)."""
-        if groups_per_chunk < 1:
-            raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
+        checks.count(groups_per_chunk, "groups_per_chunk")
         by_traj: dict[str, dict[tuple[float, float, int], list[Cell]]] = {}
         for c in cells:
             by_traj.setdefault(c.traj_key, {}).setdefault((c.eta_pct, c.v_pct, c.seed), []).append(
@@ -236,15 +237,16 @@ def _simulation_periods(hs: Sequence[float], base: float | None) -> list[tuple[f
         groups.append((base, []))
     for h in sorted(hs):
         for p, members in groups:
-            k = round(h / p)
-            if k >= 1 and abs(k * p - h) <= 1e-9 * h:
-                members.append((h, int(k)))
+            k = checks.integer_ratio(h, p)
+            if k is not None:
+                members.append((h, k))
                 break
         else:
             if base is not None:
-                raise ValueError(
+                raise ArgumentError(
+                    "h",
                     f"`h` = {h:g} s is not an integer multiple of the period {base:g} s of the "
-                    "given exact samples (`reference`)."
+                    "given exact samples (`reference`).",
                 )
             groups.append((h, [(h, 1)]))
     return [(p, members) for p, members in groups if members]
@@ -266,7 +268,7 @@ def _model(config: SweepConfig) -> Any:
         raise ValueError(f"`vehicle` {config.vehicle!r}: {exc}") from exc
 
 
-def _signals(config: SweepConfig, model: Any) -> tuple[Any, ...]:
+def _signals(config: SweepConfig, model: Model) -> tuple[Any, ...]:
     """The inputs of the grid (the objects given, or built for the plant), checked
     against the model and every h."""
     plant = model.plant if isinstance(model, ClosedLoop) else model

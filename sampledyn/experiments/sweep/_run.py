@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ... import _checks as checks
+from ...exceptions import SweepConfigError
 from ._backends import (
     check_dask_workers,
     connect,
@@ -37,7 +39,7 @@ from ._backends import (
     stop_pool,
 )
 from ._compute import ChunkResult
-from ._config import DEFAULT_MAX_CELLS, SweepConfig, SweepConfigError, load_config
+from ._config import DEFAULT_MAX_CELLS, SweepConfig, load_config
 from ._plan import Cell, Chunk, PlannedGroup, Study, plan_study
 from ._store import CELL_COLUMNS, Claim, ResultStore, inspect_store
 
@@ -496,12 +498,11 @@ def _backend(
     """The backend's name and worker count, the run's arguments checked."""
     if workers is not None and scheduler is not None:
         raise ValueError("give `workers` or `scheduler`, not both.")
-    if workers is not None and (isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"`workers` must be >= 1, got {workers}.")
-    if groups_per_chunk is not None and groups_per_chunk < 1:
-        raise ValueError(f"`groups_per_chunk` must be >= 1, got {groups_per_chunk}.")
-    if not lease > 0:
-        raise ValueError(f"`lease` must be > 0 s, got {lease!r}.")
+    if workers is not None:
+        checks.count(workers, "workers")
+    if groups_per_chunk is not None:
+        checks.count(groups_per_chunk, "groups_per_chunk")
+    checks.positive(lease, "lease", unit="s")
     if scheduler is not None:
         return f"dask:{scheduler}", 1
     if workers is not None:

@@ -70,11 +70,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ...exceptions import NotAStoreError
+
 __all__ = [
     "APPLICATION_ID",
     "CELL_COLUMNS",
     "Claim",
-    "NotAStoreError",
     "ResultStore",
     "inspect_store",
     "load_results",
@@ -175,10 +176,6 @@ _CLAIM_COLUMNS = (
 )
 _TABLES = ("cells", "trajectories", "runs")
 _BATCH = 500  # keys per SQL statement (SQLite's variable limit is 32766 since 3.32)
-
-
-class NotAStoreError(ValueError):
-    """A file that is not a sampledyn results store; it was left untouched."""
 
 
 @dataclass(frozen=True)
@@ -863,6 +860,7 @@ class ResultStore:
         return True
 
     def close(self) -> None:
+        """Close the store's connection (a ``with`` block does it on exit)."""
         self._conn.close()
 
     def __enter__(self) -> ResultStore:

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ...models import Model
 from ...sensitivity import fastest_time_constant
 
 __all__ = ["SUMMARIES", "fastest_time_constant", "motion_summary", "summarize_trajectory"]
@@ -41,11 +42,11 @@ def motion_summary(traj: Any) -> dict[str, float]:
     }
 
 
-def _tau(model: Any, traj: Any) -> dict[str, float]:
+def _tau(model: Model, traj: Any) -> dict[str, float]:
     return {"tau_min": fastest_time_constant(model, traj)}
 
 
-def _motion(model: Any, traj: Any) -> dict[str, float]:
+def _motion(model: Model, traj: Any) -> dict[str, float]:
     return motion_summary(traj)
 
 
@@ -56,7 +57,7 @@ SUMMARIES: dict[str, tuple[Callable[[Any, Any], dict[str, float]], str]] = {
 }
 
 
-def summarize_trajectory(names: tuple[str, ...], model: Any, traj: Any) -> dict[str, float]:
+def summarize_trajectory(names: tuple[str, ...], model: Model, traj: Any) -> dict[str, float]:
     """The summaries ``names`` of the exact samples ``traj`` of ``model``, merged."""
     out: dict[str, float] = {}
     for name in names:

@@ -21,22 +21,22 @@ and ``rollout`` runs over all samples in compiled code.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from .._predict import check_measured
+from .._simulate import switching
 from .._trajectory import Trajectory
-from ..methods import DiscreteTimeSystem, Estimator, get_method, uniform_step
-from ..models import (
-    JacobianUnavailableError,
-    jump_surface_at,
-    kernel_import_line,
-    load_generated_module,
-    refuse_jumps,
-)
-from ..predict import check_measured
-from ..simulate import switching
+from ..exceptions import ArgumentError, JacobianUnavailableError
+from ..methods import DiscreteTimeSystem, Estimator, Method, get_method
+from ..methods._base import uniform_step
+from ..models import Model
+from ..models._codegen import import_line as kernel_import_line
+from ..models._codegen import load_module as load_generated_module
+from ..models._jumps import refuse_jumps
+from ..models._jumps import surface_at as jump_surface_at
 
 __all__ = ["DiscreteModel", "check_rule", "discretize"]
 
@@ -62,7 +62,7 @@ jac = njit(inline="always", error_model="numpy")(_jac_kernel.py_func)
 # compiled Dormand-Prince 8 interval integrator with kink location, on the model's
 # kernel and switching function; NaN where it fails.
 _BIND_FLOW = """
-from sampledyn.simulate import integrate_intervals as _integrate_intervals
+from sampledyn._simulate import integrate_intervals as _integrate_intervals
 
 # The integrator takes the model's kernels as function pointers, which numba's disk
 # cache cannot keep: this module compiles in each process.
@@ -176,7 +176,7 @@ def rollout_f(t, x, u, p, h, k, out):
 """
 
 
-def _rule(method: Any) -> Any:
+def _rule(method: str | Method) -> Any:
     """The rule object, or a ValueError saying why it is not a discrete-time system."""
     rule: Any = get_method(method)
     if isinstance(rule, DiscreteTimeSystem):
@@ -192,14 +192,14 @@ def _rule(method: Any) -> Any:
     raise ValueError(f"`method` {rule.name!r} cannot be discretized: {why}.")
 
 
-def check_rule(method: Any) -> None:
+def check_rule(method: str | Method) -> None:
     """Raise a ValueError saying why ``method`` (a registry name or rule object) is not
     a discrete-time system z+ = F(z, u) (the estimated rules, ABj_s); pass otherwise.
     For studies that design on each rule, before any work."""
     _rule(method)
 
 
-def _module(model: Any, step: Any) -> tuple[Any, Any]:
+def _module(model: Model, step: Any) -> tuple[Any, Any]:
     """The generated module of (model kernel, rule's step) and the parameter array p."""
     rhs, p = model.kernel()
     needs_jac = "jac" in step.kernels
@@ -253,14 +253,6 @@ def _finite(v: np.ndarray, name: str) -> None:
         )
 
 
-def _check_h(h: Any) -> float:
-    if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
-        raise TypeError(f"sampling period `h` must be a number (s), got {type(h).__name__}.")
-    if not (math.isfinite(h) and h > 0):
-        raise ValueError(f"sampling period `h` must be a finite number > 0 s, got {h}.")
-    return float(h)
-
-
 class DiscreteModel:
     """A sampled-data rule applied to a model: the discrete-time system z+ = F(z, u).
 
@@ -288,14 +280,16 @@ class DiscreteModel:
         past sample; with ``delay`` z ends with the held command (nu entries).
     """
 
-    def __init__(self, model: Any, method: Any, h: float, *, delay: bool = False) -> None:
+    def __init__(
+        self, model: Model, method: str | Method, h: float, *, delay: bool = False
+    ) -> None:
         rule = _rule(method)
         if not isinstance(delay, bool | np.bool_):
             raise TypeError(f"`delay` must be True or False, got {delay!r}.")
         self.model = model
         self.method = rule
         self.step_data = rule.discrete_step
-        self.h = _check_h(h)
+        self.h = checks.period(h)
         self.delay = bool(delay)
         self.layout = tuple(self.step_data.layout)
         self.nx = int(model.nx)
@@ -383,13 +377,13 @@ class DiscreteModel:
         """
         check_measured(self.model, measured)
         h = uniform_step(measured, self.method.name)
-        if abs(h - self.h) > 1e-9 * self.h:
-            raise ValueError(
+        if not checks.same_period(h, self.h):
+            raise ArgumentError(
+                "measured",
                 f"`measured` is sampled with h={h:g} s, this model with h={self.h:g} s; "
-                "discretize with the data's period."
+                "discretize with the data's period.",
             )
-        if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-            raise ValueError(f"`k` must be an integer >= 1 (steps ahead), got {k!r}.")
+        k = checks.count(k, "k", what="steps ahead")
         mod = self._kernels()
         out = np.full((measured.n_samples, self.nx), np.nan)
         fn = compiled_kernel(mod, "rollout_f" if hasattr(mod, "rollout_f") else "rollout")
@@ -560,7 +554,7 @@ class DiscreteModel:
         point of a Kalman filter design). Then ``G = A_d S`` with S that block map.
         For ``control.dlqe(A_d, G, C, Q_N, R_N)`` Q_N is the covariance of the stacked
         delta (e.g. ``kron(I, diag(a**2 / 3))`` for uniform noise of amplitude a,
-        :func:`sampledyn.noise.noise_amplitudes`).
+        :func:`sampledyn._noise.noise_amplitudes`).
         """
         z, u = self._vectors(z, u)
         nx = self.nx
@@ -601,7 +595,7 @@ class DiscreteModel:
 
     def to_casadi(self) -> Any:
         """``casadi.Function`` F(z, u) -> z+ (``pip install 'sampledyn[control]'``);
-        see :func:`sampledyn.discretize.casadi_rhs` for which models it supports."""
+        see :func:`sampledyn._discretize.casadi_rhs` for which models it supports."""
         from ._casadi import discrete_function
 
         return discrete_function(self)
@@ -613,7 +607,9 @@ def compiled_kernel(module: Any, name: str) -> Any:
     return getattr(module, name)
 
 
-def discretize(model: Any, method: Any, h: float, *, delay: bool = False) -> DiscreteModel:
+def discretize(
+    model: Model, method: str | Method, h: float, *, delay: bool = False
+) -> DiscreteModel:
     """The discrete-time model z+ = F(z, u) of a sampled-data rule applied to a model.
 
     Parameters

@@ -13,4 +13,9 @@ from ._estimate import estimate as estimate
 from ._estimate import estimate_and_predict as estimate_and_predict
 from ._estimated import EstimatedAdamsBashforth as EstimatedAdamsBashforth
 
-__all__ = ["EstimatedAdamsBashforth", "EstimationResult", "estimate", "estimate_and_predict"]
+__all__ = [
+    "EstimatedAdamsBashforth",
+    "EstimationResult",
+    "estimate",
+    "estimate_and_predict",
+]

@@ -22,7 +22,7 @@ kind           uniform grid (w = 1)                     non-uniform grid
 =============  =======================================  ==========================
 
 (N = number of samples counted.) On a grid that is uniform to the rounding of t
-(:func:`sampledyn.methods.uniform_grid`) w = 1 exactly and the numbers are the
+(:func:`sampledyn._trajectory.uniform_grid`) w = 1 exactly and the numbers are the
 unweighted ones, bit for bit. The errors themselves are not rescaled by the step
 (``e_n / h_n^{s+1}`` would depend on the rule's order and mix truncation with noise).
 """
@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _checks as checks
 from ._trajectory import Trajectory, uniform_grid
 
 __all__ = [
@@ -313,7 +314,7 @@ def error_window(
             raise ValueError(f"`where` must have shape {(n,)}, got {where.shape}.")
         keep = where.copy()
     if after is not None:
-        late = t >= after - 1e-9 * max(1.0, abs(after))
+        late = checks.at_or_after(t, after)
         keep = late if keep is None else keep & late
     rows: Any = slice(0, n)
     if keep is not None:

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models import Model, SymbolicModel
+
 __all__ = ["casadi_rhs", "discrete_function"]
 
 
@@ -117,7 +119,7 @@ def _run_kernel(kernel: Any, p: Any, t: Any, x: Any, u: Any, n_out: int) -> Any:
     return ca.vertcat(*out)
 
 
-def _sympy_rhs(model: Any, x: Any, u: Any) -> Any:
+def _sympy_rhs(model: SymbolicModel, x: Any, u: Any) -> Any:
     """CasADi expression of a symbolic model's f at the model's parameter values."""
     import sympy as sp
 
@@ -184,11 +186,11 @@ def _branching_calls(sp: Any, e: Any) -> Any:
     return e.replace(lambda n: isinstance(n, sp.Piecewise), piecewise)
 
 
-def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
+def _rhs_expression(model: Model, x: Any, u: Any) -> Any:
     symbolic = getattr(model, "symbolic", None)  # AUVLike: a SymbolicModel inside
-    if symbolic is not None and hasattr(symbolic, "expressions"):
+    if isinstance(symbolic, SymbolicModel):
         return _sympy_rhs(symbolic, x, u)
-    if hasattr(model, "expressions"):
+    if isinstance(model, SymbolicModel):
         return _sympy_rhs(model, x, u)
     plant, law = getattr(model, "plant", None), getattr(model, "law", None)
     if plant is not None and law is not None:  # ClosedLoop: f(x, kappa(x, r))
@@ -199,7 +201,7 @@ def _rhs_expression(model: Any, x: Any, u: Any) -> Any:
     return _run_kernel(kernel, p, 0.0, x, u, int(model.nx))
 
 
-def casadi_rhs(model: Any) -> Any:
+def casadi_rhs(model: Model) -> Any:
     """``casadi.Function`` f(x, u) -> x' of a continuous-time model (SX).
 
     Supported: symbolic models (from their sympy expressions: ``Piecewise`` as

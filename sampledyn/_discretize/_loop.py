@@ -9,10 +9,10 @@ command of the previous sample (a computation delay of one sample).
 Why here and not in :func:`sampledyn.simulate`: ``simulate`` integrates a known input
 signal and certifies the samples; in a loop the input of an interval depends on the
 samples before it, so the integration goes interval by interval, and a controller
-designed on a discrete-time model (:class:`~sampledyn.discretize.DiscreteModel`) builds
+designed on a discrete-time model (:class:`~sampledyn.DiscreteModel`) builds
 its state z from the measured history the way that model's rule does. Both are facts
 of this layer. The loop calls the simulator's compiled interval integrator
-(:data:`sampledyn.simulate.integrate_intervals`) from compiled code: a
+(:data:`sampledyn._simulate.integrate_intervals`) from compiled code: a
 :class:`LinearLaw` (gain matrix and references as data) runs without any Python call
 per sample; any other controller is a Python callable, called once per sample.
 """
@@ -28,18 +28,16 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
+from .. import _checks as checks
+from .._noise import add_noise
+from .._simulate import integrate_intervals, switching
 from .._trajectory import Trajectory
-from ..models import RHS_TYPE, RO1, RO2, readonly, refuse_jumps
-from ..noise import add_noise
-from ..simulate import IntegrationError, integrate_intervals, switching
+from ..exceptions import ArgumentError, EnvelopeExceeded, IntegrationError
+from ..models._base import RHS_TYPE, RO1, RO2, readonly
+from ..models._jumps import refuse_jumps
 from ._model import DiscreteModel
 
-__all__ = ["EnvelopeExceeded", "LinearLaw", "LoopRun", "run_loop"]
-
-
-class EnvelopeExceeded(RuntimeError):
-    """The sampled loop left the state envelope given to :func:`run_loop` (it is
-    diverging); the message names the time and the states."""
+__all__ = ["LinearLaw", "LoopRun", "run_loop"]
 
 
 _F = types.float64
@@ -200,12 +198,7 @@ class LinearLaw:
         if not isinstance(d, DiscreteModel):
             raise TypeError(f"`design` must be a DiscreteModel, got {type(d).__name__}.")
         put = object.__setattr__
-        k = np.ascontiguousarray(self.gain, dtype=float)
-        if k.shape != (d.nu, d.nz) or not np.isfinite(k).all():
-            raise ValueError(
-                f"`gain` must be finite with shape (nu, nz) = ({d.nu}, {d.nz}), got "
-                f"{np.shape(self.gain)}."
-            )
+        k = np.ascontiguousarray(checks.finite_array(self.gain, "gain", (d.nu, d.nz)))
         put(self, "gain", k)
         zr = np.asarray(self.z_ref, dtype=float)
         ur = np.asarray(self.u_ref, dtype=float)
@@ -352,15 +345,13 @@ def run_loop(
     EnvelopeExceeded
         if the state leaves ``envelope``.
     """
-    from ..simulate import _check_period  # the simulator's own check of (h, T)
+    from .._simulate import check_period  # the simulator's own check of (h, T)
 
-    n_int = _check_period(h, T)
+    n_int = check_period(h, T)
     t = np.arange(n_int + 1, dtype=float) * float(h)
     nx, nu = int(plant.nx), int(plant.nu)
     x0 = plant.default_x0 if x0 is None else x0
-    x0 = np.asarray(x0, dtype=float)
-    if x0.shape != (nx,) or not np.isfinite(x0).all():
-        raise ValueError(f"`x0` must be a finite array of shape ({nx},), got {x0.shape}.")
+    x0 = checks.finite_array(x0, "x0", (nx,))
     noise_arr = _noise_array(plant, t, noise, seed, distribution)
     refuse_jumps(
         plant, "plant", "the sampled loop integrates it without the branches of f (no "
@@ -393,8 +384,10 @@ def run_loop(
         )
     if law is not None:
         d = law.design
-        if abs(d.h - float(h)) > 1e-9 * d.h:
-            raise ValueError(f"the law was designed for h={d.h:g} s, the loop runs h={h:g} s.")
+        if not checks.same_period(float(h), d.h):
+            raise ArgumentError(
+                "h", f"the law was designed for h={d.h:g} s, the loop runs h={h:g} s."
+            )
         if d.nx != nx or d.nu != nu:
             raise ValueError(
                 f"the law's design model has nx={d.nx}, nu={d.nu}; the plant nx={nx}, nu={nu}."

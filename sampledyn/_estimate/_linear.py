@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..methods import ConvergenceError
+from ..exceptions import ConvergenceError
 
 __all__ = [
     "LinearSolution",

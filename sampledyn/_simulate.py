@@ -25,17 +25,18 @@ from typing import Any
 
 import numpy as np
 
+from . import _checks as checks
 from . import _integrator as _int
 from ._integrator import DEFAULT_MAX_STEPS, integrate_intervals
-from ._trajectory import Certificate, NumericalError, SlidingInterval, Trajectory
-from .models import index_switch as _index_switch
-from .models import readonly
+from ._trajectory import Certificate, SlidingInterval, Trajectory
+from .exceptions import ArgumentError, IntegrationError, JumpRefused
+from .models import Model
+from .models._base import index_switch as _index_switch
+from .models._base import readonly
 from .signals import Signal
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
-    "IntegrationError",
-    "JumpRefused",
     "integrate_intervals",
     "simulate",
     "switching",
@@ -49,11 +50,7 @@ _CALL_SECONDS = 0.05
 _FIRST_BUDGET = 256
 
 
-class IntegrationError(NumericalError):
-    """The exact-sample integrator could not meet its tolerance."""
-
-
-def switching(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
+def switching(model: Model) -> tuple[Any, np.ndarray, np.ndarray]:
     """The model's switching function: values whose zero crossings are points where f
     is not smooth (``|v| v``, ``n |n|``).
 
@@ -88,7 +85,7 @@ class _InputLimits:
     so the full-length input is never built; :meth:`warn` once at the end.
     """
 
-    def __init__(self, model: Any) -> None:
+    def __init__(self, model: Model) -> None:
         limits: Any = getattr(model, "input_limits", None)
         self.model = model
         self.active = limits is not None
@@ -153,24 +150,23 @@ class _InputLimits:
         )
 
 
-def _check_period(h: Any, T: Any) -> int:
-    for name, v in (("h", h), ("T", T)):
-        if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
-            raise TypeError(f"`{name}` must be a number (s), got {type(v).__name__}.")
-        if not math.isfinite(v):
-            raise ValueError(f"`{name}` must be finite, got {v}.")
-    if h <= 0:
-        raise ValueError(f"sampling period `h` must be > 0 s, got {h}.")
+def check_period(h: Any, T: Any) -> int:
+    """The number of sampling intervals n = T / h of a run, after checking ``h`` (a
+    sampling period) and ``T`` (at least h, an integer multiple of it)."""
+    h = checks.period(h)
+    T = checks.number(T, "T", unit="s")
     if T < h:
-        raise ValueError(f"duration `T` = {T} s must be at least one sampling period h = {h} s.")
-    n = round(T / h)
-    if abs(n * h - T) > 1e-9 * T:
-        raise ValueError(f"`T` = {T} s must be an integer multiple of `h` = {h} s.")
-    return int(n)
+        raise ArgumentError(
+            "T", f"duration `T` = {T} s must be at least one sampling period h = {h} s."
+        )
+    n = checks.integer_ratio(T, h)
+    if n is None:
+        raise ArgumentError("T", f"`T` = {T} s must be an integer multiple of `h` = {h} s.")
+    return n
 
 
 def simulate(
-    model: Any,
+    model: Model,
     signal: Any,
     T: float,
     h: float,
@@ -253,13 +249,12 @@ def simulate(
     34(3), 2008; details in :mod:`sampledyn._integrator`). The value the formula gives
     on the surface itself is never integrated.
     """
-    n_int = _check_period(h, T)
+    n_int = check_period(h, T)
     _check_model(model, signal, h)
     x0 = _initial_state(model, x0)
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
-    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 1:
-        raise ValueError(f"`max_steps` must be a positive int, got {max_steps!r}.")
+    checks.count(max_steps, "max_steps")
 
     # t_n = n h (the same values as h * arange, without the integer temporary)
     t = np.arange(n_int + 1, dtype=float)
@@ -304,7 +299,7 @@ def simulate(
     )
 
 
-def _check_model(model: Any, signal: Any, h: float) -> None:
+def _check_model(model: Model, signal: Any, h: float) -> None:
     if not hasattr(model, "kernel"):
         raise TypeError(
             "`model` must provide a compiled kernel (a sampledyn model), "
@@ -318,21 +313,10 @@ def _check_model(model: Any, signal: Any, h: float) -> None:
     signal.check_sampling(float(h))
 
 
-def _initial_state(model: Any, x0: Any) -> np.ndarray:
+def _initial_state(model: Model, x0: Any) -> np.ndarray:
     if x0 is None:
         x0 = model.default_x0
-    x0 = np.asarray(x0, dtype=float)
-    if x0.shape != (model.nx,):
-        raise ValueError(f"`x0` must have shape ({model.nx},), got {x0.shape}.")
-    if not np.isfinite(x0).all():
-        raise ValueError("`x0` holds NaN or inf.")
-    return x0
-
-
-class JumpRefused(IntegrationError):
-    """f jumps across a switching surface and the motion there is not defined: both
-    sides push the state away (non-unique solutions), or it would slide on the
-    intersection of two surfaces. The message names the surface, time and state."""
+    return checks.finite_array(x0, "x0", (model.nx,))
 
 
 class _Integration:
@@ -342,7 +326,7 @@ class _Integration:
     ``_CALL_SECONDS`` of work, where Ctrl-C and SIGTERM take effect) and go on with the
     same numbers."""
 
-    def __init__(self, model: Any, rtol: float, atol: float, certify: bool, max_steps: int):
+    def __init__(self, model: Model, rtol: float, atol: float, certify: bool, max_steps: int):
         self.model = model
         rhs, p = model.kernel()
         self.sw, sp, input_only = switching(model)
@@ -457,7 +441,7 @@ class _Integration:
         )
 
 
-def _switch_names(model: Any, n_sw: int) -> tuple[str, ...]:
+def _switch_names(model: Model, n_sw: int) -> tuple[str, ...]:
     """Names of the switching values, for messages."""
     get = getattr(model, "switching_names", None)
     if get is not None:
@@ -470,7 +454,7 @@ def _switch_names(model: Any, n_sw: int) -> tuple[str, ...]:
     return names if len(names) == n_sw else tuple(f"g[{k}]" for k in range(n_sw))
 
 
-def _state_text(model: Any, x: np.ndarray) -> str:
+def _state_text(model: Model, x: np.ndarray) -> str:
     pairs = ", ".join(f"{n} = {v:.10g}" for n, v in zip(model.state_names, x, strict=True))
     return f"the state ({pairs})"
 

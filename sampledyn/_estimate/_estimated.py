@@ -20,7 +20,9 @@ from typing import Any
 import numpy as np
 
 from .._trajectory import Trajectory
-from ..methods import ab_coefficients, warn_if_unstable
+from ..methods import ab_coefficients
+from ..methods._adams import warn_if_unstable
+from ..models._base import ParametricModel
 from ._estimate import EstimationResult, estimate_and_predict
 
 __all__ = ["EstimatedAdamsBashforth", "estimated_euler"]
@@ -116,7 +118,7 @@ class EstimatedAdamsBashforth:
 
     def estimate_and_predict(
         self,
-        model: Any,
+        model: ParametricModel,
         data: Trajectory,
         signal: Any = None,
         *,
@@ -139,12 +141,14 @@ class EstimatedAdamsBashforth:
             free_weights=self.free_weights,
         )
 
-    def estimate(self, model: Any, data: Trajectory, signal: Any = None) -> EstimationResult:
+    def estimate(
+        self, model: ParametricModel, data: Trajectory, signal: Any = None
+    ) -> EstimationResult:
         """The :class:`~sampledyn.EstimationResult` this rule predicts with."""
         return self.estimate_and_predict(model, data, signal)[1]
 
     def predict(
-        self, model: Any, data: Trajectory, signal: Any = None, *, cache: Any = None
+        self, model: ParametricModel, data: Trajectory, signal: Any = None, *, cache: Any = None
     ) -> np.ndarray:
         """Estimate on ``data``, then x_hat[n + 1] for every n, shape (N, nx); NaN in
         the first s rows. ``model`` supplies the structure and the fixed parameters;

@@ -8,16 +8,17 @@ from typing import Any
 
 import numpy as np
 
-from ._trajectory import NumericalError, Trajectory
-from .methods import get_predictor
-from .models import SingularPitchError
+from ._trajectory import Trajectory
+from .exceptions import NumericalError, SingularPitchError
+from .methods import Method, get_predictor
+from .models import Model
 
 __all__ = ["predict"]
 
 
 def predict(
-    method: Any,
-    model: Any,
+    method: str | Method,
+    model: Model,
     measured: Trajectory,
     signal: Any = None,
     *,
@@ -78,7 +79,7 @@ def predict(
 
 
 def _singular_where(
-    m: Any, model: Any, measured: Trajectory, signal: Any, exc: SingularPitchError
+    m: Any, model: Model, measured: Trajectory, signal: Any, exc: SingularPitchError
 ) -> SingularPitchError:
     """Tell a singular state in ``measured`` from one that the rule formed between
     samples (a Runge-Kutta stage, a Tustin iterate) and find the first sample whose
@@ -133,7 +134,7 @@ def _singular_where(
     )
 
 
-def check_measured(model: Any, measured: Any) -> None:
+def check_measured(model: Model, measured: Any) -> None:
     """Raise if ``measured`` is not a finite Trajectory of the model's sizes (errors
     name the argument and the first bad sample). Whether the sample times suit a
     rule (uniform grid or not) is the rule's own check."""

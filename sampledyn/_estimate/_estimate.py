@@ -14,7 +14,7 @@ affine in theta: ``e_k = b_k - A_k theta`` with
     A_k = h sum_i a_i Phi_{k-1-i},    b_k = x_k - x_{k-1} - h sum_i a_i f0_{k-1-i}.
 
 Stacking the rows of all samples in the window gives a linear l_p regression, solved
-exactly (:mod:`sampledyn.estimate._linear`). Other structures (RK_s, Tustin) and
+exactly (:mod:`sampledyn._estimate._linear`). Other structures (RK_s, Tustin) and
 parameters that enter f nonlinearly are fitted by ``scipy.optimize.least_squares``
 (p = 2 only).
 """
@@ -30,9 +30,13 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks as checks
+from .._predict import check_measured
 from .._trajectory import Trajectory
-from ..methods import Estimator, Predictor, ab_filter, get_method, get_predictor, uniform_step
-from ..predict import check_measured
+from ..methods import Estimator, Predictor, get_method, get_predictor
+from ..methods._adams import ab_filter
+from ..methods._base import uniform_step
+from ..models._base import ParametricModel
 from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
 __all__ = ["EstimationResult", "estimate", "estimate_and_predict"]
@@ -104,7 +108,7 @@ class EstimationResult:
 
     params: Mapping[str, float]
     units: Mapping[str, str]
-    model: Any
+    model: ParametricModel
     structure: str
     p: float
     n_samples: int
@@ -163,7 +167,7 @@ def _check_p(p: Any) -> float:
     return p
 
 
-def _linear_form(model: Any, data: Trajectory) -> Any:
+def _linear_form(model: ParametricModel, data: Trajectory) -> Any:
     fn = getattr(model, "regressors", None)
     if fn is None:
         return None
@@ -173,7 +177,9 @@ def _linear_form(model: Any, data: Trajectory) -> Any:
         return None
 
 
-def _free_params(model: Any, params: Any, lf: Any, free_weights: bool) -> tuple[str, ...]:
+def _free_params(
+    model: ParametricModel, params: Any, lf: Any, free_weights: bool
+) -> tuple[str, ...]:
     for attr in ("param_names", "params", "with_params"):
         if not hasattr(model, attr):
             raise TypeError(
@@ -204,7 +210,7 @@ def _window(
     if after is not None:
         if not math.isfinite(after):
             raise ValueError(f"`after` must be a finite time (s) or None, got {after}.")
-        k = k[data.t[k] >= after - 1e-9 * max(1.0, abs(after))]
+        k = k[checks.at_or_after(data.t[k], after)]
     if skip_input_jumps and history > 1 and k.size:
         same = np.ones(k.size, dtype=bool)
         for i in range(1, history):
@@ -214,7 +220,7 @@ def _window(
 
 
 def _components(
-    model: Any, data: Trajectory, free: tuple[str, ...], lf: Any, free_weights: bool
+    model: ParametricModel, data: Trajectory, free: tuple[str, ...], lf: Any, free_weights: bool
 ) -> np.ndarray:
     """State components whose f depends on the free parameters (all, for free weights)."""
     if free_weights:
@@ -270,7 +276,7 @@ def _check_count(n_rows: int, n_unknowns: int, n_samples: int, after: float | No
 
 
 def estimate(
-    model: Any,
+    model: ParametricModel,
     measured: Trajectory,
     structure: Any = "AB2",
     p: float = 2,
@@ -363,7 +369,7 @@ def estimate(
     ``numpy.linalg.lstsq``; p = 1 and p = inf by linear programming (HiGHS); other p by
     IRLS with smoothing ``|r| -> sqrt(r**2 + eps**2)``, eps = 1e-7 times the largest
     least-squares residual, and a monotone line search (converges; see
-    :mod:`sampledyn.estimate._linear`). RK_s, T, or parameters entering f
+    :mod:`sampledyn._estimate._linear`). RK_s, T, or parameters entering f
     nonlinearly: ``scipy.optimize.least_squares`` from the model's values, p = 2.
 
     **Accuracy on exact samples.** The one-step errors of AB_s are O(h**(s+1)) per
@@ -458,7 +464,7 @@ def estimate(
 
 @dataclass(frozen=True)
 class _Context:
-    model: Any
+    model: ParametricModel
     data: Trajectory
     rule: Any
     k: np.ndarray
@@ -734,7 +740,7 @@ def _fit_nonlinear(ctx: _Context, signal: Any) -> EstimationResult:
 
 
 def estimate_and_predict(
-    model: Any,
+    model: ParametricModel,
     measured: Trajectory,
     structure: Any = "AB2",
     signal: Any = None,

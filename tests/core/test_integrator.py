@@ -1,0 +1,73 @@
+"""The compiled integrator's Dormand-Prince 8(5,3) table is SciPy's, bit for bit, and
+simulating imports neither scipy.integrate nor matplotlib."""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+from _processes import run_python
+
+
+def test_embedded_dop853_table_is_scipys_to_the_last_bit():
+    """The integrator's coefficient table (embedded, so that simulating does not import
+    scipy.integrate) equals SciPy's transcription of Hairer's dop853.f bit for bit."""
+    from scipy.integrate._ivp import dop853_coefficients as ref
+
+    from sampledyn import _dop853 as ours
+
+    n = ref.N_STAGES
+    assert ours.N_STAGES == n == 12
+    pairs = {
+        "A": (ours.A, ref.A[:n, :n]),
+        "B": (ours.B, ref.B),
+        "C": (ours.C, ref.C[:n]),
+        "E3": (ours.E3, ref.E3),
+        "E5": (ours.E5, ref.E5),
+    }
+    for name, (a, b) in pairs.items():
+        assert a.dtype == np.float64 and a.shape == b.shape, name
+        # view as integers: equal bits, signed zeros included
+        assert np.array_equal(a.view(np.int64), np.ascontiguousarray(b).view(np.int64)), name
+    # the order conditions the table must meet (sum b = 1, c_i = sum_j a_ij)
+    assert abs(ours.B.sum() - 1.0) < 1e-14
+    np.testing.assert_allclose(ours.A.sum(axis=1), ours.C, atol=1e-14)
+
+
+@pytest.mark.slow
+def test_simulating_imports_neither_scipy_integrate_nor_matplotlib():
+    found = run_python(
+        """
+        import json, sys
+        import numpy as np
+        import sampledyn as sd
+        traj = sd.simulate(sd.models.AUVLike(), sd.signals.Multilevel(hold=0.1, seed=0),
+                           T=1.0, h=0.1, x0=np.array([1.0, 0.0]))
+        sd.predict("RK4", sd.models.AUVLike(), traj)
+        print(json.dumps({m: m in sys.modules for m in
+                          ("scipy.integrate", "scipy.optimize", "matplotlib", "sympy")}))
+        """
+    )
+    assert found == {
+        "scipy.integrate": False,
+        "scipy.optimize": False,
+        "matplotlib": False,
+        "sympy": True,  # the AUV-like model is symbolic (sympy builds its kernel)
+    }, found
+
+
+def test_the_integrator_uses_the_whole_table():
+    """The arrays the compiled integrator freezes into its code are SciPy's 12 stages."""
+    from scipy.integrate._ivp import dop853_coefficients as ref
+
+    sim_module = importlib.import_module("sampledyn._integrator")
+    n = ref.N_STAGES
+    for ours, theirs in (
+        (sim_module._A, ref.A[:n, :n]),
+        (sim_module._B, ref.B),
+        (sim_module._C, ref.C[:n]),
+        (sim_module._E3, ref.E3),
+        (sim_module._E5, ref.E5),
+    ):
+        assert np.array_equal(ours.view(np.int64), np.ascontiguousarray(theirs).view(np.int64))
