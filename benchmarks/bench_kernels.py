@@ -41,7 +41,7 @@ from _rows import row, write_json
 from numba import njit, types
 
 import sampledyn as sd
-from sampledyn.models import RHS_TYPE, RO1, RO2, readonly
+from sampledyn.models._base import RHS_TYPE, RO1, RO2, readonly
 
 
 # -------------------------------------------------------------- the reference writer
