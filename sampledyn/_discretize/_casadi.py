@@ -23,6 +23,7 @@ CasADi expressions give it exact, sparse first and second derivatives.
 from __future__ import annotations
 
 import functools
+import math
 import types
 from typing import Any
 
@@ -45,7 +46,7 @@ def _math_namespace(ca: Any) -> types.SimpleNamespace:
     return types.SimpleNamespace(
         sin=ca.sin, cos=ca.cos, tan=ca.tan, asin=ca.asin, acos=ca.acos, atan=ca.atan,
         atan2=ca.atan2, sinh=ca.sinh, cosh=ca.cosh, tanh=ca.tanh, exp=ca.exp, log=ca.log,
-        sqrt=ca.sqrt, fabs=ca.fabs, floor=ca.floor, ceil=ca.ceil, pi=np.pi, e=np.e,
+        sqrt=ca.sqrt, fabs=ca.fabs, floor=ca.floor, ceil=ca.ceil, pi=math.pi, e=math.e,
         copysign=lambda a, b: ca.fabs(a) * ca.sign(b), isnan=lambda a: False,
     )  # fmt: skip
 
