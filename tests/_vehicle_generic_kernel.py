@@ -239,8 +239,92 @@ def _thrust_column(x, p, out, col, i, n):
     _minv_column(p, out, col, c0 * s, c1 * s, c2 * s, c3 * s, c4 * s, c5 * s)
 
 
-# kept as it was (the oracle), with its per-column branches: C901 17
-def vehicle_jac(t, x, u, p, out):  # noqa: C901
+def _velocity_column(x, u, p, out, j, ab):
+    """out[6:12, 6 + j] = M^-1 column j of -(d(C(v) v)/dv + d(D(v) v)/dv) + d tau/dv
+    (eqs. (13) and (16)); ``ab`` = M v as its two 3-vectors."""
+    nt = int(p[_N])
+    lag = p[_LAG] > 0.5
+    k2 = p[_K2]
+    n_max = p[_NMAX]
+    a0, a1, a2, b0, b1, b2 = ab
+    vu = x[6]
+    vv = x[7]
+    vw = x[8]
+    vp = x[9]
+    vq = x[10]
+    vr = x[11]
+    # column j of d(C v)/dv = [S(nu2) M_top; S(nu1) M_top + S(nu2) M_bot]_j + extra
+    m0 = p[_M + j]
+    m1 = p[_M + 6 + j]
+    m2 = p[_M + 12 + j]
+    n0 = p[_M + 18 + j]
+    n1 = p[_M + 24 + j]
+    n2 = p[_M + 30 + j]
+    d0 = vq * m2 - vr * m1
+    d1 = vr * m0 - vp * m2
+    d2 = vp * m1 - vq * m0
+    d3 = vv * m2 - vw * m1 + vq * n2 - vr * n1
+    d4 = vw * m0 - vu * m2 + vr * n0 - vp * n2
+    d5 = vu * m1 - vv * m0 + vp * n1 - vq * n0
+    # the derivative through the explicit nu1 / nu2 factors: e_k x a (and e_k x b)
+    if j == 0:
+        d4 -= a2
+        d5 += a1
+    elif j == 1:
+        d3 += a2
+        d5 -= a0
+    elif j == 2:
+        d3 -= a1
+        d4 += a0
+    elif j == 3:
+        d1 -= a2
+        d2 += a1
+        d4 -= b2
+        d5 += b1
+    elif j == 4:
+        d0 += a2
+        d2 -= a0
+        d3 += b2
+        d5 -= b0
+    else:
+        d0 -= a1
+        d1 += a0
+        d3 -= b1
+        d4 += b0
+    # damping: d(D(v) v)/dv = D_l + diag(2 d_q |v|)
+    c0 = -d0 - p[_DL + j]
+    c1 = -d1 - p[_DL + 6 + j]
+    c2 = -d2 - p[_DL + 12 + j]
+    c3 = -d3 - p[_DL + 18 + j]
+    c4 = -d4 - p[_DL + 24 + j]
+    c5 = -d5 - p[_DL + 30 + j]
+    dq = 2.0 * p[_DQ + j] * abs(x[6 + j])
+    if j == 0:
+        c0 -= dq
+    elif j == 1:
+        c1 -= dq
+    elif j == 2:
+        c2 -= dq
+    elif j == 3:
+        c3 -= dq
+    elif j == 4:
+        c4 -= dq
+    else:
+        c5 -= dq
+    # thrusters: d tau / dv = -K2 B diag(|n|) B^T, eq. (16)
+    for i in range(nt):
+        n = x[12 + i] if lag else _saturate(u[i], n_max)
+        s = -k2 * abs(n) * p[_ALLOC + 6 * i + j]
+        c0 += p[_ALLOC + 6 * i + 0] * s
+        c1 += p[_ALLOC + 6 * i + 1] * s
+        c2 += p[_ALLOC + 6 * i + 2] * s
+        c3 += p[_ALLOC + 6 * i + 3] * s
+        c4 += p[_ALLOC + 6 * i + 4] * s
+        c5 += p[_ALLOC + 6 * i + 5] * s
+    _minv_column(p, out, 6 + j, c0, c1, c2, c3, c4, c5)
+
+
+def vehicle_jac(t, x, u, p, out):
     """df/dx for one state; writes ``out`` (shape (nx, nx)).
 
     Blocks: eta rows (eqs. (17)-(18)), v rows (eqs. (13)-(16)), lag rows (eq. (3)).
@@ -248,8 +332,6 @@ def vehicle_jac(t, x, u, p, out):  # noqa: C901
     nt = int(p[_N])
     lag = p[_LAG] > 0.5
     nx = out.shape[0]
-    k2 = p[_K2]
-    n_max = p[_NMAX]
     for i in range(nx):
         for j in range(nx):
             out[i, j] = 0.0
@@ -350,84 +432,9 @@ def vehicle_jac(t, x, u, p, out):  # noqa: C901
     )
 
     # --- d f_v / d v, eqs. (13) and (16)
-    vu = x[6]
-    vv = x[7]
-    vw = x[8]
-    vp = x[9]
-    vq = x[10]
-    vr = x[11]
-    a0, a1, a2, b0, b1, b2 = _mass_times_v(x, p)
-
+    ab = _mass_times_v(x, p)
     for j in range(6):
-        # column j of d(C v)/dv = [S(nu2) M_top; S(nu1) M_top + S(nu2) M_bot]_j + extra
-        m0 = p[_M + j]
-        m1 = p[_M + 6 + j]
-        m2 = p[_M + 12 + j]
-        n0 = p[_M + 18 + j]
-        n1 = p[_M + 24 + j]
-        n2 = p[_M + 30 + j]
-        d0 = vq * m2 - vr * m1
-        d1 = vr * m0 - vp * m2
-        d2 = vp * m1 - vq * m0
-        d3 = vv * m2 - vw * m1 + vq * n2 - vr * n1
-        d4 = vw * m0 - vu * m2 + vr * n0 - vp * n2
-        d5 = vu * m1 - vv * m0 + vp * n1 - vq * n0
-        # the derivative through the explicit nu1 / nu2 factors: e_k x a (and e_k x b)
-        if j == 0:
-            d4 -= a2
-            d5 += a1
-        elif j == 1:
-            d3 += a2
-            d5 -= a0
-        elif j == 2:
-            d3 -= a1
-            d4 += a0
-        elif j == 3:
-            d1 -= a2
-            d2 += a1
-            d4 -= b2
-            d5 += b1
-        elif j == 4:
-            d0 += a2
-            d2 -= a0
-            d3 += b2
-            d5 -= b0
-        else:
-            d0 -= a1
-            d1 += a0
-            d3 -= b1
-            d4 += b0
-        # damping: d(D(v) v)/dv = D_l + diag(2 d_q |v|)
-        c0 = -d0 - p[_DL + j]
-        c1 = -d1 - p[_DL + 6 + j]
-        c2 = -d2 - p[_DL + 12 + j]
-        c3 = -d3 - p[_DL + 18 + j]
-        c4 = -d4 - p[_DL + 24 + j]
-        c5 = -d5 - p[_DL + 30 + j]
-        dq = 2.0 * p[_DQ + j] * abs(x[6 + j])
-        if j == 0:
-            c0 -= dq
-        elif j == 1:
-            c1 -= dq
-        elif j == 2:
-            c2 -= dq
-        elif j == 3:
-            c3 -= dq
-        elif j == 4:
-            c4 -= dq
-        else:
-            c5 -= dq
-        # thrusters: d tau / dv = -K2 B diag(|n|) B^T, eq. (16)
-        for i in range(nt):
-            n = x[12 + i] if lag else _saturate(u[i], n_max)
-            s = -k2 * abs(n) * p[_ALLOC + 6 * i + j]
-            c0 += p[_ALLOC + 6 * i + 0] * s
-            c1 += p[_ALLOC + 6 * i + 1] * s
-            c2 += p[_ALLOC + 6 * i + 2] * s
-            c3 += p[_ALLOC + 6 * i + 3] * s
-            c4 += p[_ALLOC + 6 * i + 4] * s
-            c5 += p[_ALLOC + 6 * i + 5] * s
-        _minv_column(p, out, 6 + j, c0, c1, c2, c3, c4, c5)
+        _velocity_column(x, u, p, out, j, ab)
 
     if lag:
         # d f_v / d n = M^-1 B diag(dT/dn), and the lag rows, eq. (3)
