@@ -2,8 +2,8 @@
 Python: the oracle for "f equal to today's". One state at a time, every parameter read
 from ``p`` and every entry of each 6 x 6 matrix visited, zeros included.
 
-Only the offset of the allocation moved (three derived values were packed before it);
-it is taken from the library's layout.
+Its reads of ``p`` use the library's layout (the offsets are unchanged but for the
+allocation's, after three derived values packed before it).
 """
 # ruff: noqa: E501
 
@@ -11,27 +11,28 @@ from __future__ import annotations
 
 import math
 
-from sampledyn.models._vehicle_kernels import _ALLOC
-
-# Layout of the parameter array p.
-_N = 0  # number of thrusters
-_LAG = 1  # 1.0 when the thruster rpm are states (eq. (3)), else 0.0
-_TN = 2  # lag time constant T_n (s)
-_K1 = 3  # N/rpm^2
-_K2 = 4  # N s/(m rpm)
-_W = 5  # weight (N)
-_BUOY = 6  # buoyancy (N)
-_NMAX = 7  # saturation n_max (rpm)
-_RG = 8  # r_G (3, m)
-_RB = 11  # r_B (3, m)
-_DQ = 14  # quadratic damping diag (6)
-_TAUC = 20  # cable force (6, body frame)
-_VCB = 26  # current added inside J(eta)(v + v_c) (6, body frame)
-_VCN = 32  # current added to eta' (6, NED / Euler-rate frame)
-_DL = 38  # linear damping D_l row-major (36)
-_M = 74  # M row-major (36)
-_MINV = 110  # M^-1 row-major (36)
-_WRENCH = 146  # 1.0 when the input is the commanded wrench tau itself (nu = 6, N = 0)
+# The layout of the parameter array p, from the library (the one place it is defined).
+from sampledyn.models._vehicle_kernels import (
+    _ALLOC,
+    _BUOY,
+    _DL,
+    _DQ,
+    _K1,
+    _K2,
+    _LAG,
+    _M,
+    _MINV,
+    _N,
+    _NMAX,
+    _RB,
+    _RG,
+    _TAUC,
+    _TN,
+    _VCB,
+    _VCN,
+    _W,
+    _WRENCH,
+)
 
 
 def _saturate(n, n_max):
