@@ -1,6 +1,10 @@
 """From a vehicle file to a digital LQR, run on the exact plant.
 
-    python examples/control_design.py [vehicle file or name] [rule] [h]
+    python examples/control_design.py [vehicle] [rule] [h] [--surge U] [--depth Z] [--heading PSI]
+
+(vehicle: a vehicle file or a built-in name, default rexrov; rule default AB4; h in s,
+default 0.1; the set point: surge U m/s, depth Z m, heading PSI rad, default 0.5, 5,
+0.5.)
 
 1. load the vehicle (a TOML vehicle file, or a built-in name);
 2. find the trim of a depth / heading / surge hold;
@@ -11,12 +15,15 @@
    saturating at n_max) with the paper's measurement noise, and print the residual
    set after the transient.
 
-Needs `pip install 'sampledyn[control]'`. Adapt the set point, the weights Q, R or the
-rule; any rule with a discrete state works (E, AB<s>, ABu<s>, RK<s>, T).
+Needs `pip install 'sampledyn[control]'`. Adapt the weights Q, R or the rule; any
+rule with a discrete state works (E, AB<s>, ABu<s>, RK<s>, T). A set point the vehicle
+cannot hold (no trim, or one pitched beyond the vehicle's limit) ends the script with
+the reason.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import control
@@ -27,14 +34,28 @@ from sampledyn import LinearLaw, run_loop
 from sampledyn.experiments import trim
 from sampledyn.models import load_vehicle
 
-vehicle_file = sys.argv[1] if len(sys.argv) > 1 else "rexrov"
-rule = sys.argv[2] if len(sys.argv) > 2 else "AB4"
-h = float(sys.argv[3]) if len(sys.argv) > 3 else 0.1
+parser = argparse.ArgumentParser(description="digital LQR from a vehicle file")
+parser.add_argument("vehicle", nargs="?", default="rexrov", help="vehicle file or built-in name")
+parser.add_argument("rule", nargs="?", default="AB4", help="sampled-data rule (default AB4)")
+parser.add_argument("h", nargs="?", type=float, default=0.1, help="sampling period in s")
+parser.add_argument("--surge", type=float, default=0.5, help="set-point surge in m/s (0.5)")
+parser.add_argument("--depth", type=float, default=5.0, help="set-point depth in m (5)")
+parser.add_argument("--heading", type=float, default=0.5, help="set-point heading in rad (0.5)")
+args = parser.parse_args()
+rule, h = args.rule, args.h
 
-vehicle = load_vehicle(vehicle_file).with_buoyancy(1.0)
+vehicle = load_vehicle(args.vehicle).with_buoyancy(1.0)
 
-# 1-2. trim: surge 0.5 m/s at 5 m depth, heading 0.5 rad
-x_star, u_star = trim(vehicle, surge=0.5, depth=5.0, heading=0.5)
+# 1-2. trim of the set point (the equilibrium found is verified: |f| < 1e-10, thrusters
+# within n_max, pitch within the vehicle's limit; otherwise trim says why there is none)
+try:
+    x_star, u_star = trim(vehicle, surge=args.surge, depth=args.depth, heading=args.heading)
+except ValueError as exc:
+    sys.exit(f"control_design: {exc}")
+print(
+    f"trim: surge {args.surge} m/s, depth {args.depth} m, heading {args.heading} rad; "
+    f"theta* = {np.degrees(x_star[4]):.3g} deg"
+)
 
 # 3. the discrete-time model and its linearisation at the trim
 model = sd.discretize(vehicle, rule, h)

@@ -38,8 +38,10 @@ _EXPORTS: dict[str, str | None] = {
     "error_norm": "._local_errors",
     "estimate": "._estimate",
     "estimate_and_predict": "._estimate",
+    "estimate_noise": "._noise",
     "exceptions": None,
     "experiments": None,
+    "get_baseline": "._baselines",
     "get_method": ".methods",
     "local_errors": "._local_errors",
     "logs": None,
@@ -66,6 +68,7 @@ if TYPE_CHECKING:
     from . import results as results
     from . import sensitivity as sensitivity
     from . import signals as signals
+    from ._baselines import get_baseline as get_baseline
     from ._discretize import DiscreteModel as DiscreteModel
     from ._discretize import LinearLaw as LinearLaw
     from ._discretize import discretize as discretize
@@ -77,6 +80,7 @@ if TYPE_CHECKING:
     from ._local_errors import error_norm as error_norm
     from ._local_errors import local_errors as local_errors
     from ._noise import add_noise as add_noise
+    from ._noise import estimate_noise as estimate_noise
     from ._predict import predict as predict
     from ._simulate import simulate as simulate
     from ._trajectory import Certificate as Certificate

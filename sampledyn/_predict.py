@@ -13,7 +13,22 @@ from .exceptions import NumericalError, SingularPitchError
 from .methods import Method, get_predictor
 from .models import Model
 
-__all__ = ["predict"]
+__all__ = ["HELD_INPUT_TEXT", "predict", "warn_held_input"]
+
+#: What a rule that evaluates f between samples does without the input there (the
+#: warning of :func:`warn_held_input`, after the rule's name).
+HELD_INPUT_TEXT = (
+    "the input between samples is not known (no `signal`, and the data carry none: a "
+    "log or data built by hand), so the sampled input is held over each interval "
+    "(zero-order hold) for the stages inside it; give signal=... if the input moved "
+    "between samples."
+)
+
+
+def warn_held_input(names: str, stacklevel: int = 3) -> None:
+    """Say that ``names`` (rules that evaluate f between samples) hold the sampled
+    input (a UserWarning, shown once per place by Python's default filter)."""
+    warnings.warn(f"{names}: {HELD_INPUT_TEXT}", UserWarning, stacklevel=stacklevel)
 
 
 def predict(
@@ -35,8 +50,11 @@ def predict(
     measured : Trajectory
         Sampled (possibly noisy) data; NaN or inf is an error.
     signal : Signal, optional
-        The input in continuous time, for Runge-Kutta stages between samples; without
-        it the sampled input is held.
+        The input in continuous time, for the rules that evaluate f between samples
+        (Runge-Kutta stages, Tustin's end point). Default: the signal ``measured``
+        remembers (``measured.signal``: data made by :func:`sampledyn.simulate`);
+        without either (a log) the sampled input is held over each interval, which
+        such a rule says once (a warning).
     cache : dict, optional
         Kept by the caller across calls on the same model and data: f at the samples
         is then computed once for every rule that uses it (all AB orders).
@@ -72,6 +90,8 @@ def predict(
     """
     m = get_predictor(method)
     check_measured(model, measured)
+    if signal is None and measured.signal is None and m.intersample:
+        warn_held_input(m.name)
     try:
         return np.asarray(m.predict(model, measured, signal, cache=cache))
     except SingularPitchError as exc:

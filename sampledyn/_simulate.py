@@ -207,7 +207,9 @@ def simulate(
     -------
     Trajectory with ``t`` shape (N,), ``x`` shape (N, nx), ``u`` shape (N, nu);
     ``u`` is the input at the sample times; ``sliding`` the intervals of sliding
-    motion on a switching surface (empty without jumps).
+    motion on a switching surface (empty without jumps); ``signal`` the input itself
+    (so that the rules that need the input between samples find it,
+    :attr:`Trajectory.signal`).
 
     Raises
     ------
@@ -296,6 +298,7 @@ def simulate(
         input_units=model.input_units,
         certificate=certificate,
         sliding=run.sliding(float(t[-1])),
+        signal=signal,
     )
 
 

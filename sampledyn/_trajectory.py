@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -151,6 +151,13 @@ class Trajectory:
         predictors evaluate f on one branch at each of their points, so their errors
         on intervals that overlap these are those of a rule that does not know the
         sliding (of order h times the jump of f), not of order h^(s+1).
+    signal : Signal or None
+        The input in continuous time that made the samples (set by
+        :func:`sampledyn.simulate`; kept by noise, subsampling and slicing in time);
+        the rules that evaluate f between samples (RK_s, T) take their stage inputs
+        from it when no ``signal`` is given. None for a log, whose input between
+        samples is unknown (the rules then hold the sampled input), and after
+        :meth:`replace` changes ``u`` without giving a ``signal``.
     """
 
     t: np.ndarray
@@ -165,6 +172,7 @@ class Trajectory:
     certificate: Certificate | None = field(default=None, repr=False)
     origin: str | None = field(default=None, repr=False)
     sliding: tuple[SlidingInterval, ...] = field(default=(), repr=False)
+    signal: Any = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t = _frozen(self.t)
@@ -231,7 +239,10 @@ class Trajectory:
         return bool(steps.size == 0 or np.abs(steps - self.h).max() <= rtol * self.h)
 
     def replace(self, **changes: object) -> Trajectory:
-        """A copy with some fields changed (``dataclasses.replace``)."""
+        """A copy with some fields changed (``dataclasses.replace``). A new ``u``
+        without a ``signal`` drops the signal (it made the old inputs, not these)."""
+        if "u" in changes and "signal" not in changes:
+            changes["signal"] = None
         return replace(self, **changes)  # type: ignore[arg-type]
 
     def subsample(self, k: int) -> Trajectory:

@@ -365,9 +365,12 @@ class DiscreteModel:
         Row n predicts ``measured.x[n]`` from the samples up to n - k: z is built from
         the data at n - k (:meth:`state_from_data`) and stepped k times with the
         measured inputs u[n-k], ..., u[n-1] (the inputs that were applied, so
-        ``delay`` does not change it). NaN in the first k + history - 1 rows. k = 1
-        equals :func:`sampledyn.predict` with this rule (bit for bit for the AB, ABu
-        and RK rules; Tustin to its Newton tolerance). Compiled over all samples.
+        ``delay`` does not change it), each held over its interval (the discrete-time
+        system's input). NaN in the first k + history - 1 rows. k = 1 equals
+        :func:`sampledyn.predict` with this rule and the input held (bit for bit for
+        the AB, ABu and RK rules; Tustin to its Newton tolerance): for RK_s and T the
+        prediction of data that remember a signal (``measured.signal``) uses the
+        input between samples instead. Compiled over all samples.
 
         Raises
         ------

@@ -35,7 +35,7 @@ from .._predict import check_measured
 from .._trajectory import Trajectory
 from ..methods import Estimator, Predictor, get_method, get_predictor
 from ..methods._adams import ab_filter
-from ..methods._base import uniform_step
+from ..methods._base import fixed_step, uniform_step
 from ..models._base import ParametricModel
 from ._linear import check_identifiable, covariance, lp_norm, solve_linear
 
@@ -104,6 +104,18 @@ class EstimationResult:
     iterations : int
         Iterations of IRLS or function evaluations of least_squares (0 otherwise).
     converged : bool
+    bounds : Mapping[str, tuple[float, float]]
+        The physical bounds the estimates were checked against (those the model
+        declares for the free parameters).
+    left_out : int
+        One-step errors left out because the rule's history straddles a change of the
+        sampled input (``skip_input_jumps``).
+    straddling : int
+        One-step errors whose history straddles such a change and that were counted
+        (``skip_input_jumps=False``, or a continuously varying input).
+
+    The property :attr:`flags` says, per parameter, what makes its estimate mean
+    little.
     """
 
     params: Mapping[str, float]
@@ -126,6 +138,19 @@ class EstimationResult:
     solver: str
     iterations: int
     converged: bool
+    bounds: Mapping[str, tuple[float, float]] = field(default_factory=lambda: MappingProxyType({}))
+    left_out: int = 0
+    straddling: int = 0
+
+    @property
+    def flags(self) -> dict[str, tuple[str, ...]]:
+        """Per parameter (only those flagged): "loose", its standard error is >= its
+        magnitude (the data hardly excite the term: sign and size undetermined; the
+        "(*)" of the printed estimate); "bounds", it lies outside the physical bounds
+        the model declares (``model.param_bounds``: a negative damping or added mass
+        of a vehicle, a SymbolicModel's ``param_bounds``): the fit absorbed noise or
+        forces the model lacks (the "(!)")."""
+        return _flags(self.params, self.std_errors, self.bounds)
 
     def __str__(self) -> str:
         lines = [
@@ -133,23 +158,65 @@ class EstimationResult:
             f"solver {self.solver}, residual norm {self.residual_norm:.4g}, "
             f"condition number {self.condition_number:.3g}"
         ]
-        loose = []
         for name, value in self.params.items():
             se = "" if self.std_errors is None else f" +- {self.std_errors[name]:.3g}"
             line = f"  {name} = {value:.8g}{se} {self.units.get(name, '')}".rstrip()
-            if self.std_errors is not None and not self.std_errors[name] < abs(value):
-                line += "  (*)"
-                loose.append(name)
+            marks = self.flags.get(name, ())
+            line += "".join(f"  ({_MARKS[f]})" for f in marks)
             lines.append(line)
-        if loose:
+        shown = {f for marks in self.flags.values() for f in marks}
+        if "loose" in shown:
             lines.append(
                 "  (*) standard error >= |value|: this log hardly excites the term (sign and "
                 "size undetermined); the standard errors assume independent residuals, so "
                 "they are indicative only"
             )
+        if "bounds" in shown:
+            spans = ", ".join(
+                f"{n} in [{lo:g}, {hi:g}]"
+                for n, (lo, hi) in self.bounds.items()
+                if "bounds" in self.flags.get(n, ())
+            )
+            lines.append(
+                f"  (!) outside the model's physical bounds ({spans}): the fit absorbed noise "
+                "or forces the model lacks; the value means nothing as that parameter"
+            )
+        if self.left_out:
+            lines.append(
+                f"  {self.left_out} one-step errors whose history straddles an input jump "
+                "left out (skip_input_jumps)"
+            )
+        elif self.straddling:
+            lines.append(
+                f"  {self.straddling} one-step errors whose history straddles an input jump "
+                "counted (they bias the estimate by O(h); skip_input_jumps=True leaves them "
+                "out)"
+            )
         if self.weights is not None:
             lines.append(f"  weights = {np.array2string(self.weights, precision=6)}")
         return "\n".join(lines)
+
+
+_MARKS = {"loose": "*", "bounds": "!"}
+
+
+def _flags(
+    values: Mapping[str, float],
+    std: Mapping[str, float] | None,
+    bounds: Mapping[str, tuple[float, float]],
+) -> dict[str, tuple[str, ...]]:
+    """The flags of :attr:`EstimationResult.flags`."""
+    out: dict[str, tuple[str, ...]] = {}
+    for name, value in values.items():
+        marks = []
+        if std is not None and not std[name] < abs(value):
+            marks.append("loose")
+        lo, hi = bounds.get(name, (-math.inf, math.inf))
+        if not lo <= value <= hi:
+            marks.append("bounds")
+        if marks:
+            out[name] = tuple(marks)
+    return out
 
 
 # ---------------------------------------------------------------------------------
@@ -202,21 +269,27 @@ def _free_params(
 
 
 def _window(
-    data: Trajectory, history: int, after: float | None, skip_input_jumps: bool
-) -> np.ndarray:
-    """Indices k of the predicted samples used: k >= history, t_k >= after and, with
-    ``skip_input_jumps``, u identical on samples k-history..k-1."""
+    data: Trajectory, history: int, after: float | None, skip_input_jumps: bool | None
+) -> tuple[np.ndarray, int, int]:
+    """``(k, left_out, straddling)``: indices k of the predicted samples used (k >=
+    history, t_k >= after), how many were left out because u is not identical on
+    samples k-history..k-1, and how many such were kept; with ``skip_input_jumps``
+    None, they are left out only where the input is piecewise constant (they are
+    fewer than half), see :func:`estimate`."""
     k = np.arange(history, data.n_samples)
     if after is not None:
         if not math.isfinite(after):
             raise ValueError(f"`after` must be a finite time (s) or None, got {after}.")
         k = k[checks.at_or_after(data.t[k], after)]
-    if skip_input_jumps and history > 1 and k.size:
-        same = np.ones(k.size, dtype=bool)
-        for i in range(1, history):
-            same &= (data.u[k - i] == data.u[k - 1 - i]).all(axis=1)
-        k = k[same]
-    return k
+    if history < 2 or k.size == 0:
+        return k, 0, 0
+    same = np.ones(k.size, dtype=bool)
+    for i in range(1, history):
+        same &= (data.u[k - i] == data.u[k - 1 - i]).all(axis=1)
+    straddling = int((~same).sum())
+    if skip_input_jumps is False or (skip_input_jumps is None and same.sum() < 0.5 * k.size):
+        return k, 0, straddling  # kept (a continuous input changes at most samples)
+    return k[same], straddling, 0
 
 
 def _components(
@@ -285,7 +358,7 @@ def estimate(
     *,
     free_weights: bool = False,
     signal: Any = None,
-    skip_input_jumps: bool = False,
+    skip_input_jumps: bool | None = None,
     component_scale: Any = None,
     tol: float = 1e-10,
     max_iter: int = 500,
@@ -302,7 +375,9 @@ def estimate(
         the fixed values of the parameters not estimated, and the starting point of
         the nonlinear fits.
     measured : Trajectory
-        Uniformly sampled (possibly noisy) data, N samples; NaN or inf is an error.
+        Sampled (possibly noisy) data, N samples, uniform or not (a jittered log: the
+        AB_s regression then uses the weights of the actual nodes, as the rule's
+        prediction does; free weights need a uniform grid); NaN or inf is an error.
     structure : str or method object
         The rule: "E" (= AB1), "AB<s>", "RK<s>", "T".
     p : float
@@ -321,13 +396,17 @@ def estimate(
         is not empty, else instead of it), see Notes.
     signal : Signal, optional
         Continuous-time input for the RK stages (see :func:`sampledyn.predict`).
-    skip_input_jumps : bool
+    skip_input_jumps : bool or None
         AB only: leave out the samples whose AB history straddles a change of the
         sampled input (u not identical on samples k-s..k-1). With a piecewise
         constant input, f jumps with u, the interpolating polynomial over the jump is
         wrong by O(h * jump), and those rows, a fraction (s - 1) h / h_u of the data,
-        bias the estimate by O(h). Do not use it with continuously varying inputs
-        (every sample would be dropped).
+        bias the estimate by O(h) (for s = 4 on the AUV-like model, delta = -12.3
+        instead of 0.5 on exact samples). None (default): leave them out when the
+        input is piecewise constant, i.e. when they are fewer than half of the rows (a
+        continuously varying input changes at every sample and leaves nothing to
+        skip); True: always; False: never (the paper's estimator, every sample).
+        ``EstimationResult.left_out`` counts them.
     component_scale : None, "increments" or ndarray of shape (nx,)
         How to weigh the one-step errors of state components of different units
         (e.g. m/s and rad/s of a vehicle) in one norm: None uses them as they are
@@ -418,7 +497,8 @@ def estimate(
         raise ValueError(
             f"`structure` must be a fixed rule (E, AB<s>, RK<s>, T), got {rule.name!r}."
         )
-    uniform_step(measured, rule.name)
+    if free_weights or not rule.variable_step:
+        uniform_step(measured, rule.name)
     # A rule that is a fixed filter of f at the samples (AB_s, Euler) gives one-step
     # errors affine in theta for models linear in theta.
     ab_weights = rule.sample_weights
@@ -429,11 +509,15 @@ def estimate(
     history = len(ab_weights) if ab_weights is not None else rule.history
     lf = _linear_form(model, measured)
     free = _free_params(model, params, lf, free_weights)
-    k = _window(measured, history, after, skip_input_jumps and ab_weights is not None)
+    skip = skip_input_jumps if ab_weights is not None else False
+    k, left_out, straddling = _window(measured, history, after, skip)
     comps = _components(model, measured, free, lf, free_weights)
     scale = _scale(component_scale, measured, k, comps)
     linear = lf is not None and set(free) <= set(lf.names)
-    ctx = _Context(model, measured, rule, k, comps, scale, free, after, tol, max_iter, cond_warn)
+    ctx = _Context(
+        model, measured, rule, k, comps, scale, free, after, tol, max_iter, cond_warn,
+        left_out, straddling,
+    )  # fmt: skip
 
     if free_weights:
         assert ab_weights is not None
@@ -475,6 +559,8 @@ class _Context:
     tol: float
     max_iter: int
     cond_warn: float
+    left_out: int = 0
+    straddling: int = 0
 
     @property
     def n_rows(self) -> int:
@@ -488,6 +574,24 @@ class _Context:
     def units(self) -> dict[str, str]:
         pu = getattr(self.model, "param_units", {}) or {}
         return {n: str(pu.get(n, "")) for n in self.free}
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        declared = getattr(self.model, "param_bounds", {}) or {}
+        return {
+            n: (float(declared[n][0]), float(declared[n][1])) for n in self.free if n in declared
+        }
+
+    def step_weights(self, weights: np.ndarray) -> np.ndarray:
+        """``h_n beta_{n,i}`` of the predicted samples k, shape (len(k), s): the fixed
+        ``h a_i`` on a uniform grid, the weights of the actual nodes otherwise (as the
+        rule predicts, :meth:`sampledyn.methods.AdamsBashforth.step_weights`)."""
+        d, s = self.data, len(weights)
+        h = fixed_step(d)
+        if h is not None:
+            return np.broadcast_to(h * weights, (self.k.size, s))
+        if hasattr(self.rule, "step_weights"):
+            return np.asarray(self.rule.step_weights(d, None))[self.k - s]
+        return np.diff(d.t)[self.k - 1][:, None] * weights[None, :]  # one-step (RK1)
 
     def result(
         self,
@@ -505,6 +609,12 @@ class _Context:
     ) -> EstimationResult:
         values = {n: float(v) for n, v in zip(self.free, theta, strict=True)}
         model = self.model.with_params(**values) if values else self.model
+        std_map = (
+            None
+            if std is None
+            else MappingProxyType({n: float(s) for n, s in zip(self.free, std, strict=True)})
+        )
+        bounds = self.bounds()
         res = residuals.reshape(self.k.size, self.comps.size)
         names = tuple(self.data.state_names[c] for c in self.comps)
         return EstimationResult(
@@ -516,9 +626,7 @@ class _Context:
             n_samples=int(self.k.size),
             n_rows=self.n_rows,
             residual_norm=lp_norm((res / self.scale).ravel(), p),
-            std_errors=None
-            if std is None
-            else MappingProxyType({n: float(s) for n, s in zip(self.free, std, strict=True)}),
+            std_errors=std_map,
             condition_number=float(cond),
             weights=None if weights is None else _readonly(weights),
             weight_std_errors=None if weight_std is None else _readonly(weight_std),
@@ -530,7 +638,20 @@ class _Context:
             solver=solver,
             iterations=int(iterations),
             converged=bool(converged),
+            bounds=MappingProxyType(bounds),
+            left_out=int(self.left_out),
+            straddling=int(self.straddling),
         )
+
+
+def _weighted_lagged_sum(g: np.ndarray, k: np.ndarray, hw: np.ndarray) -> np.ndarray:
+    """sum_i hw[r, i] * g[k_r - 1 - i] per row r (hw shape (len(k), s)), over the
+    leading axis of g; the trailing axes of g broadcast."""
+    extra = (slice(None),) + (None,) * (g.ndim - 1)
+    out = hw[:, 0][extra] * g[k - 1]
+    for i in range(1, hw.shape[1]):
+        out = out + hw[:, i][extra] * g[k - 1 - i]
+    return out
 
 
 def _lagged_sum(g: np.ndarray, k: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -566,12 +687,19 @@ def _warn_unconverged(ok: bool, what: str, n: int) -> None:
 
 
 def _fit_linear(ctx: _Context, weights: np.ndarray, lf: Any, p: float) -> EstimationResult:
-    h = ctx.data.h
     phi, f0 = _split_linear(ctx, lf)
     n_free = len(ctx.free)
     _check_count(ctx.n_rows, n_free, int(ctx.k.size), ctx.after)
-    a3 = h * _lagged_sum(phi, ctx.k, weights) / ctx.scale[None, :, None]
-    b2 = (ctx.increments() - h * _lagged_sum(f0, ctx.k, weights)) / ctx.scale[None, :]
+    h = fixed_step(ctx.data)
+    if h is not None:  # the fixed coefficients, in the order of the uniform-grid rule
+        a3 = h * _lagged_sum(phi, ctx.k, weights)
+        b2 = ctx.increments() - h * _lagged_sum(f0, ctx.k, weights)
+    else:
+        hw = ctx.step_weights(weights)
+        a3 = _weighted_lagged_sum(phi, ctx.k, hw)
+        b2 = ctx.increments() - _weighted_lagged_sum(f0, ctx.k, hw)
+    a3 = a3 / ctx.scale[None, :, None]
+    b2 = b2 / ctx.scale[None, :]
     a = a3.reshape(-1, n_free)
     b = b2.ravel()
     cond = check_identifiable(a, ctx.free, cond_warn=ctx.cond_warn, stacklevel=4)

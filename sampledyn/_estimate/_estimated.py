@@ -22,6 +22,7 @@ import numpy as np
 from .._trajectory import Trajectory
 from ..methods import ab_coefficients
 from ..methods._adams import warn_if_unstable
+from ..methods._stability import multistep_amplification
 from ..models._base import ParametricModel
 from ._estimate import EstimationResult, estimate_and_predict
 
@@ -47,7 +48,13 @@ class EstimatedAdamsBashforth:
     params : tuple of str, optional
         Parameters to estimate (default: those ``model.regressors`` is linear in).
     free_weights : bool
-        Estimate the s AB weights too (see :func:`sampledyn.estimate`).
+        Estimate the s AB weights too (see :func:`sampledyn.estimate`; a uniform grid
+        only).
+    skip_input_jumps : bool or None
+        Leave out the one-step errors whose history straddles an input jump (None: when
+        the input is piecewise constant; see :func:`sampledyn.estimate`). Default
+        False: the rule as the paper defines it, every one-step error counted (its
+        Fig. 2); the estimate says how many straddle a jump.
     """
 
     order: int
@@ -56,6 +63,7 @@ class EstimatedAdamsBashforth:
     after_fraction: float | None = None
     params: tuple[str, ...] | None = None
     free_weights: bool = False
+    skip_input_jumps: bool | None = False
 
     def __post_init__(self) -> None:
         ab_coefficients(self.order)  # validates the order
@@ -96,12 +104,20 @@ class EstimatedAdamsBashforth:
 
     @property
     def variable_step(self) -> bool:
-        """False: the estimation fits the fixed AB_s weights on a uniform grid."""
-        return False
+        """True unless the weights are estimated: the regression and the prediction use
+        the weights of the actual nodes on a non-uniform grid, as AB_s does."""
+        return not self.free_weights
 
     @property
     def step_rule(self) -> str:
-        return "uniform grid only"
+        if self.free_weights:
+            return "uniform grid only (estimated weights)"
+        return "estimated on, and predicting with, the Adams weights of the actual nodes"
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """The AB_s recursion's largest root modulus at z = h lambda (it predicts with
+        AB_s; lambda are then eigenvalues of the estimated model's Jacobian)."""
+        return multistep_amplification(ab_coefficients(self.order), z)
 
     # -- estimation --------------------------------------------------------------------
 
@@ -139,6 +155,7 @@ class EstimatedAdamsBashforth:
             after=self._after(data) if after is None else after,
             params=self.params,
             free_weights=self.free_weights,
+            skip_input_jumps=self.skip_input_jumps,
         )
 
     def estimate(

@@ -7,7 +7,16 @@ import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ._common import add_format, names, option, pair, print_json, refuse, writable_dir
+from ._common import (
+    add_format,
+    names,
+    newton_options,
+    option,
+    pair,
+    print_json,
+    refuse,
+    writable_dir,
+)
 
 if TYPE_CHECKING:  # the command line imports this module before the kernels
     from ..models import Model
@@ -79,13 +88,27 @@ def _json(advice: Any, args: argparse.Namespace, png: Path) -> dict[str, Any]:
         "seeds": advice.seeds,
         "best": advice.best,
         "rank_agreement": advice.rank_agreement,
+        "noise_levels": None
+        if advice.noise_levels is None
+        else dict(zip(advice.state_names, map(float, advice.noise_levels), strict=True)),
         "rows": [dataclasses.asdict(r) for r in advice.rows],
+        "baselines": [dataclasses.asdict(r) for r in advice.baselines],
+        "failed": {n: {"h": f[0], "reason": f[1]} for n, f in advice.curves.failed.items()},
+        "notes": list(advice.notes),
         "crossings": _crossings(advice),
         "figure": str(png),
     }
 
 
+def _check_options(args: argparse.Namespace) -> None:
+    """The Newton options and --mapping, named, before any work."""
+    newton_options(args)
+    if args.mapping is not None and args.noise_from is None:
+        refuse("`--mapping` reads the log of --noise-from; give --noise-from LOG too.")
+
+
 def _run(args: argparse.Namespace) -> int:
+    _check_options(args)
     if args.report:
         return _report(args)
     out = writable_dir(args.out or "out/advise", "--out")
@@ -97,6 +120,7 @@ def _run(args: argparse.Namespace) -> int:
         vehicle = load_vehicle(args.vehicle)
     signal = None if args.input is None else _input(args.input, vehicle)
     eta_pct, v_pct = args.noise
+    levels = _noise_levels(args, vehicle)
     advice = advise(
         vehicle,
         args.h,
@@ -111,13 +135,16 @@ def _run(args: argparse.Namespace) -> int:
         base_seed=args.seed,
         rank_by=args.rank_by,
         workers=args.workers,
+        noise_levels=levels,
+        newton=newton_options(args),
     )
     from ..report._sensitivity_figs import plot_crossing
 
     png = plot_crossing(advice.curves, out / "crossing.png", h_mark=args.h)
+    status = 7 if any(r.failed for r in advice.rows) else 0  # EXIT_NUMERICAL: a row failed
     if args.format == "json":
         print_json(_json(advice, args, png))
-        return 0
+        return status
     print(advice.table())
     if advice.jacobians is not None:
         print()
@@ -129,7 +156,51 @@ def _run(args: argparse.Namespace) -> int:
     ]
     print("\ntruncation meets noise at h (eta, v): " + "; ".join(crossings))
     print(f"best: {advice.best}; wrote {png}")
-    return 0
+    return status
+
+
+def _noise_levels(args: argparse.Namespace, vehicle: Any) -> Any:
+    """Per-state noise levels: --noise-levels NAME=STD,..., or those estimated from the
+    log --noise-from (read with --mapping); None for --noise."""
+    if args.noise_levels is None and args.noise_from is None:
+        return None
+    if args.noise_levels is not None and args.noise_from is not None:
+        refuse("give --noise-levels or --noise-from, not both.")
+    if args.noise_levels is not None:
+        return _parse_levels(args.noise_levels, vehicle)
+    from ..logs import read_log
+    from ..logs._evaluate import estimate_log_noise
+    from ..logs._mapping import model_for_mapping
+
+    with option("--mapping"):
+        model = model_for_mapping(vehicle, args.mapping)
+    with option("--noise-from"):
+        data = read_log(args.noise_from, model, mapping=args.mapping)
+    return estimate_log_noise(data)
+
+
+def _parse_levels(text: str, vehicle: Any) -> Any:
+    import numpy as np
+
+    sigma = np.zeros(vehicle.nx)
+    names = list(vehicle.state_names)
+    for part in [p for p in text.split(",") if p.strip()]:
+        name, _, value = part.partition("=")
+        name = name.strip()
+        if name not in names:
+            raise ValueError(
+                f"`--noise-levels`: {name!r} is no state of {vehicle.name!r}; states: "
+                f"{', '.join(names)} (e.g. --noise-levels x=1e-5,u=2e-3)."
+            )
+        try:
+            sigma[names.index(name)] = float(value)
+        except ValueError:
+            raise ValueError(
+                f"`--noise-levels`: {part.strip()!r} is not NAME=STD; e.g. u=2e-3."
+            ) from None
+    if not (np.isfinite(sigma).all() and (sigma >= 0).all()):
+        raise ValueError("`--noise-levels`: the standard deviations must be finite and >= 0.")
+    return sigma
 
 
 def _methods(text: str | None) -> tuple[str, ...]:
@@ -180,6 +251,28 @@ def add_parser(subparsers: Any, parents: list[argparse.ArgumentParser]) -> None:
         default=(2.0, 2.0),
         help="noise levels eta%%,v%% of 1 m/30 deg and 1 m/s/30 deg/s (default 2,2)",
     )
+    p.add_argument(
+        "--noise-levels",
+        default=None,
+        help="per-state noise standard deviations NAME=STD,... in state units (others 0), "
+        "e.g. x=1e-5,u=2e-3: uniform noise of these std instead of --noise",
+    )
+    p.add_argument(
+        "--noise-from",
+        default=None,
+        metavar="LOG",
+        help="estimate the per-state noise levels from this log (read with --mapping, as "
+        "sampledyn evaluate reads it) instead of --noise",
+    )
+    p.add_argument("--mapping", default=None, help="mapping file of --noise-from (docs/logs.md)")
+    p.add_argument(
+        "--newton-tol", type=float, default=None,
+        help="Newton tolerance of the implicit rules (T) (default 1e-12)",
+    )  # fmt: skip
+    p.add_argument(
+        "--newton-max-iter", type=int, default=None,
+        help="Newton iterations of the implicit rules (T) (default 25)",
+    )  # fmt: skip
     p.add_argument(
         "--tolerance",
         type=pair,

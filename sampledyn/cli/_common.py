@@ -22,6 +22,7 @@ __all__ = [
     "floats",
     "ints",
     "names",
+    "newton_options",
     "option",
     "pair",
     "print_json",
@@ -187,6 +188,19 @@ def print_json(document: Mapping[str, Any]) -> None:
 def refuse(message: str) -> None:
     """Raise a :class:`UsageError` (exit status 2)."""
     raise UsageError(message)
+
+
+def newton_options(args: argparse.Namespace) -> dict[str, Any] | None:
+    """``--newton-tol`` and ``--newton-max-iter`` as the ``newton`` mapping of
+    ``evaluate_log`` and ``advise`` (None when neither is given), checked now, before
+    any work, by the rule that takes them (:class:`sampledyn.methods.Tustin`; its
+    ``tol`` and ``max_iter`` map to these options in ``_status.ARGUMENT_OPTIONS``)."""
+    newton = {"tol": args.newton_tol, "max_iter": args.newton_max_iter}
+    newton = {k: v for k, v in newton.items() if v is not None}
+    if not newton:
+        return None
+    registry().Tustin().with_newton(**newton)
+    return newton
 
 
 def registry() -> Any:

@@ -7,7 +7,16 @@ import csv
 import math
 from typing import TYPE_CHECKING, Any
 
-from ._common import add_format, names, option, print_json, refuse, registry, writable_file
+from ._common import (
+    add_format,
+    names,
+    newton_options,
+    option,
+    print_json,
+    refuse,
+    registry,
+    writable_file,
+)
 
 if TYPE_CHECKING:  # the command line imports this module before the kernels
     from ..models import Model
@@ -33,10 +42,58 @@ def _check_estimate(rules: tuple[str, ...]) -> None:
             )
 
 
+def _estimation_json(est: Any) -> dict[str, Any]:
+    return {
+        "structure": est.structure,
+        "p": est.p,
+        "params": dict(est.params),
+        "units": dict(est.units),
+        "std_errors": None if est.std_errors is None else dict(est.std_errors),
+        "flags": {k: list(v) for k, v in est.flags.items()},
+        "straddling": est.straddling,
+        "condition_number": est.condition_number,
+        "residual_norm": est.residual_norm,
+        "n_samples": est.n_samples,
+        "left_out": est.left_out,
+    }
+
+
+def _noise_json(noise: Any) -> dict[str, Any] | None:
+    if noise is None:
+        return None
+    return {
+        "order": noise.order,
+        "windows": noise.windows,
+        "sigma": {n: _finite(s) for n, s in zip(noise.state_names, noise.sigma, strict=True)},
+        "check": {n: _finite(s) for n, s in zip(noise.state_names, noise.check, strict=True)},
+        "units": dict(zip(noise.state_names, noise.state_units, strict=True)),
+    }
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def _stability_json(limits: Any) -> list[dict[str, Any]]:
+    return [
+        {
+            "method": lim.method,
+            "h": lim.h,
+            "h_stable": _finite(lim.h_stable),
+            "stable": lim.stable,
+            "eigenvalue": None if lim.sample < 0 else [lim.eigenvalue.real, lim.eigenvalue.imag],
+            "sample": lim.sample,
+            "amplification": lim.amplification,
+        }
+        for lim in limits
+    ]
+
+
 def _json(args: argparse.Namespace, model: Model, data: Any, result: Any) -> dict[str, Any]:
     """The document of ``evaluate --format json`` (keys in docs/cli.md)."""
+    from ..sensitivity._floor import FLOOR_FACTOR
+
     tr = data.traj
-    est = result.estimation
     return {
         "source": str(data.source),
         "vehicle": getattr(model, "name", args.vehicle),
@@ -50,22 +107,21 @@ def _json(args: argparse.Namespace, model: Model, data: Any, result: Any) -> dic
         "left_out": list(result.left_out),
         "norm": args.norm,
         "after": args.after,
-        "rows": result.rows,
-        "estimation": None
-        if est is None
-        else {
-            "structure": est.structure,
-            "p": est.p,
-            "params": dict(est.params),
-            "units": dict(est.units),
-            "std_errors": None if est.std_errors is None else dict(est.std_errors),
-            "condition_number": est.condition_number,
-            "residual_norm": est.residual_norm,
-            "n_samples": est.n_samples,
-        },
+        "rows": [{k: _plain(v) for k, v in r.items()} for r in result.rows],
+        "failed": list(result.failed),
+        "noise": _noise_json(result.noise),
+        "floor_factor": FLOOR_FACTOR,
+        "stability": _stability_json(result.stability),
+        "estimation": None if result.estimation is None else _estimation_json(result.estimation),
+        "estimations": [_estimation_json(e) for e in result.estimations],
         "warnings": list(result.warnings),
         "out": args.out,
     }
+
+
+def _plain(v: Any) -> Any:
+    """A row value for JSON: NaN and inf as null."""
+    return _finite(v) if isinstance(v, float) else v
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
@@ -85,6 +141,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             f"`--after` must be a finite time in s (log time), got {args.after:g}; e.g. "
             "--after 2 counts the errors on t >= 2 s."
         )
+    newton = newton_options(args)
     out = writable_file(args.out, "--out") if args.out else None
 
     from ..experiments.sweep._inputs import build_model
@@ -107,7 +164,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             max_missing=1 if args.max_missing is None else args.max_missing,
             irregular=args.irregular,
         )
-    result = evaluate_log(model, data, [*methods, *estimate], norm=args.norm, after=args.after)
+    result = evaluate_log(
+        model, data, [*methods, *estimate], norm=args.norm, after=args.after,
+        newton=newton,
+    )  # fmt: skip
     if out is not None:
         with out.open("w", newline="") as fh:
             writer = csv.DictWriter(fh, fieldnames=list(result.rows[0]))
@@ -115,7 +175,19 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             writer.writerows(result.rows)
     if args.format == "json":
         print_json(_json(args, model, data, result))
-        return 0
+        return _status(result)
+    _print(args, model, data, result, out)
+    return _status(result)
+
+
+def _status(result: Any) -> int:
+    """0, or EXIT_NUMERICAL when a rule's row failed (the table printed all the same)."""
+    from ._status import EXIT_NUMERICAL
+
+    return EXIT_NUMERICAL if result.failed else 0
+
+
+def _print(args: argparse.Namespace, model: Any, data: Any, result: Any, out: Any) -> None:
     tr = data.traj
     print(
         f"{data.source}: {tr.n_samples} samples, h = {tr.h:.6g} s (jitter "
@@ -130,24 +202,18 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if result.left_out:
         window += f"; without {', '.join(result.left_out)} (not measured)"
     print(f"\n{args.norm} of the one-step local errors (measurement - prediction), {window}:")
-    head = (
-        f"{'method':8s} {'order':>5s} {'position/angle':>15s} {'velocity':>12s} {'all':>12s} "
-        f"{'samples':>8s}"
-    )
-    print(head)
-    print("-" * len(head))
-    for r in result.rows:
-        print(
-            f"{r['method']:8s} {r['order']:5d} {r['err_eta']:15.4e} {r['err_v']:12.4e} "
-            f"{r['err_all']:12.4e} {r['samples']:8d}"
-        )
-    if result.estimation is not None:
-        print(f"\n{result.estimation}")
+    print(result.table())
+    for est in result.estimations:
+        print(f"\n{est}")
     for w in result.warnings:
         print(f"warning: {w}")
+    if result.failed:
+        print(
+            f"failed: {', '.join(result.failed)} (the reason in its row; exit status 7); "
+            "the other rows are complete"
+        )
     if out is not None:
         print(f"wrote {out}")
-    return 0
 
 
 def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
@@ -238,6 +304,19 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
         "default): every rule predicts on the logged stamps, the step ratios are printed",
     )
     ev.add_argument("--no-unwrap", action="store_true", help="do not unwrap angles")
+    ev.add_argument(
+        "--newton-tol",
+        type=float,
+        default=None,
+        help="Newton tolerance of the implicit rules (T): stop when every update is <= TOL "
+        "(1 + |x|) (default 1e-12)",
+    )
+    ev.add_argument(
+        "--newton-max-iter",
+        type=int,
+        default=None,
+        help="Newton iterations of the implicit rules (T) before their row fails (default 25)",
+    )
     add_format(ev, "the error table")
     ev.add_argument("--out", default=None, help="also write the table as CSV")
     ev.set_defaults(func=_cmd_evaluate)

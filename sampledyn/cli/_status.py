@@ -97,7 +97,11 @@ def _sqlite_status(exc: Exception) -> int:
 
 
 #: Library argument -> the option (its ``dest``) that gives it, where the names differ.
-ARGUMENT_OPTIONS: dict[str, str] = {"base_seed": "seed"}
+ARGUMENT_OPTIONS: dict[str, str] = {
+    "base_seed": "seed",
+    "tol": "newton_tol",  # Tustin's Newton options (evaluate, advise)
+    "max_iter": "newton_max_iter",
+}
 
 
 def _mentions(text: str, flag: str) -> bool:

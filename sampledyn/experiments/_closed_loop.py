@@ -45,7 +45,7 @@ import numpy as np
 
 from .._discretize import LinearLaw, discretize, run_loop
 from .._discretize._model import check_rule
-from ..exceptions import SweepConfigError
+from ..exceptions import SingularPitchError, SweepConfigError
 from ..methods import get_method
 from ..models import Model
 from ._studies import StudyDefinition
@@ -140,29 +140,26 @@ class ClosedLoopStudy:
     rtol: float = 1e-10
 
 
-def trim(vehicle: Any, surge: float, depth: float, heading: float) -> tuple[np.ndarray, np.ndarray]:
-    """The equilibrium (x*, u*) of a depth / heading / surge hold: f = 0 in every state
-    but the horizontal positions (x = y = 0 there), solved by Gauss-Newton with the
-    minimum-norm step on (phi, theta, v, w, p, q, r, rpm), from the rpm of the
-    minimum-norm thrust; converged to |f| < 1e-10.
+_FREE = np.array([3, 4, 7, 8, 9, 10, 11])  # phi, theta, v, w, p, q, r
+_TRIM_TOL = 1e-10  # |f| of an accepted trim (the state units' rounding is ~1e-16)
+_CONTINUATION_STEPS = 20  # surge steps from 0 to the set point, each halved on failure
+# The straight, roll-free hold: phi = v = 0 kept, theta, w, p, q, r and the rpm free.
+_LEVEL = np.array([4, 8, 9, 10, 11])
 
-    Raises
-    ------
-    ValueError
-        if no trim is found (e.g. the thrusters cannot hold the set point).
-    """
-    x = np.zeros(12)
-    x[2], x[5], x[6] = depth, heading, surge
-    free = np.array([3, 4, 7, 8, 9, 10, 11])
+
+def _gauss_newton(
+    vehicle: Any, x: np.ndarray, n: np.ndarray, iters: int = 50, free: np.ndarray = _FREE
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Gauss-Newton with the minimum-norm step on the states ``free`` (default phi,
+    theta, v, w, p, q, r) and rpm / n_max for f = 0 in every state but x, y; ``(x, n,
+    max |f|)``, converged when max |f| < ``_TRIM_TOL``. ``x`` is updated in place."""
     rows = np.array(_KEEP)
-    need = -vehicle.mass_matrix @ vehicle.f(0.0, x, np.zeros(vehicle.nu))[6:]
-    thrust = np.linalg.pinv(vehicle.allocation) @ need
-    n = np.sign(thrust) * np.sqrt(np.abs(thrust) / vehicle.K1)
     scale = float(vehicle.n_max)
-    for _ in range(50):
+    r = vehicle.f(0.0, x, n)[rows]
+    for _ in range(iters):
         r = vehicle.f(0.0, x, n)[rows]
-        if np.abs(r).max() < 1e-10:
-            return x, n
+        if np.abs(r).max() < _TRIM_TOL:
+            return x, n, float(np.abs(r).max())
         J = np.hstack(
             [
                 vehicle.jacobian(0.0, x, n)[np.ix_(rows, free)],
@@ -172,9 +169,187 @@ def trim(vehicle: Any, surge: float, depth: float, heading: float) -> tuple[np.n
         step = -np.linalg.pinv(J) @ r
         x[free] += step[: free.size]
         n = n + scale * step[free.size :]
+    return x, n, float(np.abs(r).max())
+
+
+def _attempt(
+    vehicle: Any, x: np.ndarray, n: np.ndarray, free: np.ndarray = _FREE
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`_gauss_newton`, a diverging attempt (non-finite, or through the singular
+    pitch) returned with an infinite residual."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the pitch warnings of a diverging iterate
+            xs, ns, res = _gauss_newton(vehicle, x.copy(), np.array(n, dtype=float), free=free)
+    except (SingularPitchError, FloatingPointError):
+        return x, n, math.inf
+    if not (np.isfinite(xs).all() and np.isfinite(ns).all()):
+        return x, n, math.inf
+    return xs, ns, res
+
+
+def _set_point(surge: float, depth: float, heading: float) -> np.ndarray:
+    x = np.zeros(12)
+    x[2], x[5], x[6] = depth, heading, surge
+    return x
+
+
+def _continuation(
+    vehicle: Any, surge: float, depth: float, heading: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The trim reached from hovering (surge 0) by raising the surge step by step, each
+    solve starting at the previous trim (a step that fails is halved, down to 1/32 of
+    it): the equilibrium on the branch of the level hover."""
+    x, n, res = _attempt(
+        vehicle, _set_point(0.0, depth, heading), _start_rpm(vehicle, 0.0, depth, heading), _LEVEL
+    )
+    if not res < _TRIM_TOL:
+        return x, n, res
+    done, step, last = 0.0, surge / _CONTINUATION_STEPS, res
+    while done != surge and abs(step) >= abs(surge) / (32 * _CONTINUATION_STEPS):
+        target = done + step if abs(done + step) < abs(surge) else surge
+        trial = x.copy()
+        trial[6] = target
+        xs, ns, res = _attempt(vehicle, trial, n, free=_LEVEL)
+        if res < _TRIM_TOL:
+            x, n, done, last = xs, ns, target, res
+        else:
+            step /= 2
+    return x, n, (last if done == surge else math.inf)
+
+
+def _start_rpm(vehicle: Any, surge: float, depth: float, heading: float) -> np.ndarray:
+    """The rpm of the minimum-norm thrust that holds the set point level."""
+    x = _set_point(surge, depth, heading)
+    need = -vehicle.mass_matrix @ vehicle.f(0.0, x, np.zeros(vehicle.nu))[6:]
+    thrust = np.linalg.pinv(vehicle.allocation) @ need
+    return np.asarray(np.sign(thrust) * np.sqrt(np.abs(thrust) / vehicle.K1))
+
+
+def _multistart(
+    vehicle: Any, surge: float, depth: float, heading: float, free: np.ndarray
+) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Trims from level-thrust starts at pitch angles -60..60 deg (every 5 deg)."""
+    found = []
+    n0 = _start_rpm(vehicle, surge, depth, heading)
+    for theta in np.radians(np.arange(-60.0, 61.0, 5.0)):
+        x = _set_point(surge, depth, heading)
+        x[4] = theta
+        found.append(_attempt(vehicle, x, n0, free))
+    return found
+
+
+def trim(
+    vehicle: Any,
+    surge: float,
+    depth: float,
+    heading: float,
+    *,
+    max_pitch_deg: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The equilibrium (x*, u*) of a depth / heading / surge hold: f = 0 in every state
+    but the horizontal positions (x = y = 0 there).
+
+    Each solve is Gauss-Newton with the minimum-norm step (the rpm scaled by n_max) to
+    |f| < 1e-10. The equilibria form a family (more unknowns than equations; a solve
+    may land on a strongly tilted one, or on none from a poor start), so the hold is
+    sought as straight, roll-free motion first: phi = v = 0, theta, w, p, q, r and the
+    rpm free, by continuation in the surge from hovering (steps from 0, each solve from
+    the last trim; a step that fails is halved) and from starts at pitch -60..60 deg
+    (every 5 deg); the least pitched of these is the level trim. The direct solve with
+    every attitude and rate free (phi, theta, v, w, p, q, r), from the rpm of the
+    minimum-norm level thrust, is taken when it agrees with the level trim's attitude to
+    1 deg (or no level trim exists), otherwise the level trim, with a warning. A trim
+    counts when |f| < 1e-10 (recomputed), every thruster is within +-n_max and |theta|
+    <= ``max_pitch_deg``.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+    surge, depth, heading : float
+        Set point (m/s, m, rad).
+    max_pitch_deg : float, optional
+        Largest |theta| accepted (deg); default the vehicle's ``pitch_limit_deg``
+        (beyond it J(eta) is near its singularity).
+
+    Raises
+    ------
+    ValueError
+        if no trim is found (e.g. the thrusters cannot hold the set point), giving the
+        smallest residual |f| reached; or if the only trims found have a pitch beyond
+        ``max_pitch_deg`` (naming it; give a larger ``max_pitch_deg`` to accept it).
+    """
+    limit = float(vehicle.pitch_limit_deg if max_pitch_deg is None else max_pitch_deg)
+    n0 = _start_rpm(vehicle, surge, depth, heading)
+    direct = _attempt(vehicle, _set_point(surge, depth, heading), n0)
+    level = [
+        _continuation(vehicle, surge, depth, heading),
+        *_multistart(vehicle, surge, depth, heading, _LEVEL),
+    ]
+    where = f"{vehicle.name!r} at surge {surge} m/s, depth {depth} m, heading {heading} rad"
+    return _choose(vehicle, direct, level, limit, where)
+
+
+_SAME_TILT_DEG = 1.0  # the direct solve's trim is the level trim's when within this
+
+
+def _converged(vehicle: Any, trial: tuple[np.ndarray, np.ndarray, float]) -> bool:
+    """|f| < 1e-10 (recomputed) with every thruster within +-n_max."""
+    x, n, res = trial
+    if not res < _TRIM_TOL or (np.abs(n) > vehicle.n_max).any():
+        return False
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        again = np.abs(vehicle.f(0.0, x, n)[np.array(_KEEP)]).max()
+    return bool(again < _TRIM_TOL)
+
+
+def _pitch(trial: tuple[np.ndarray, np.ndarray, float]) -> float:
+    return abs(float(np.degrees(trial[0][4])))
+
+
+def _choose(
+    vehicle: Any,
+    direct: tuple[np.ndarray, np.ndarray, float],
+    level: list[tuple[np.ndarray, np.ndarray, float]],
+    limit: float,
+    where: str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The trim :func:`trim` returns (see there), or why there is none."""
+    converged = [t for t in (direct, *level) if _converged(vehicle, t)]
+    within = [t for t in converged if _pitch(t) <= limit]
+    flat = [t for t in within if t is not direct]
+    best = min(flat, key=_pitch) if flat else None
+    if any(t is direct for t in within) and (
+        best is None or np.degrees(np.abs(direct[0][3:5] - best[0][3:5])).max() <= _SAME_TILT_DEG
+    ):
+        return direct[0], direct[1]
+    if best is not None:
+        if any(t is direct for t in converged):
+            warnings.warn(
+                f"trim of {where}: the direct solve found an equilibrium at theta = "
+                f"{np.degrees(direct[0][4]):.3g} deg, phi = {np.degrees(direct[0][3]):.3g} "
+                f"deg; the straight, roll-free hold (phi = v = 0) at theta = "
+                f"{np.degrees(best[0][4]):.3g} deg is taken.",
+                UserWarning,
+                stacklevel=3,
+            )
+        return best[0], best[1]
+    if converged:
+        t = min(converged, key=_pitch)
+        raise ValueError(
+            f"the only trims found of {where} have a pitch beyond the limit {limit:g} deg "
+            f"(the least: theta = {np.degrees(t[0][4]):.3g} deg, phi = "
+            f"{np.degrees(t[0][3]):.3g} deg, thrusters {np.array2string(t[1], precision=0)} "
+            "rpm): hardly a hold to design for; give max_pitch_deg=... to accept it, or "
+            "another set point."
+        )
+    residual = min(t[2] for t in (direct, *level))
     raise ValueError(
-        f"no trim of {vehicle.name!r} at surge {surge} m/s, depth {depth} m, heading "
-        f"{heading} rad (|f| = {np.abs(r).max():.3g} after 50 Gauss-Newton steps)."
+        f"no trim of {where}: the direct solve, the continuation from hovering and starts "
+        f"at pitch -60..60 deg all fail (smallest |f| reached {residual:.3g}; 1e-10 "
+        f"needed); the thrusters (n_max {vehicle.n_max:g} rpm) may not hold the set point: "
+        "try a smaller surge."
     )
 
 

@@ -6,6 +6,7 @@ Every rule answers the questions of small runtime-checkable protocols itself:
 :class:`Method` (name, family, order, history, label), :class:`Predictor`
 (prediction on uniform and non-uniform time), :class:`NoiseAnalysis` (noise gain,
 prediction Jacobians, error constant), :class:`Estimator` (Ee, ABe_s) and
+:class:`Stability` (its stability function or region, ``amplification(z)``) and
 :class:`DiscreteTimeSystem` (its step as data, :class:`StepProgram`, from which the
 compiled step, the vector blocks and the linearisation are derived); other layers
 ask it with ``isinstance`` instead of inspecting its class or parsing its name. The
@@ -27,7 +28,9 @@ from ._base import FixedRule as FixedRule
 from ._base import Method as Method
 from ._base import NoiseAnalysis as NoiseAnalysis
 from ._base import Predictor as Predictor
+from ._base import Stability as Stability
 from ._base import stencil_steps as stencil_steps
+from ._stability import largest_stable_steps as largest_stable_steps
 from ._program import Combination as Combination
 from ._program import Stage as Stage
 from ._program import StepProgram as StepProgram
@@ -61,6 +64,7 @@ __all__ = [
     "Predictor",
     "RungeKutta",
     "Stage",
+    "Stability",
     "StepProgram",
     "Tustin",
     "ab_coefficients",
@@ -69,6 +73,7 @@ __all__ = [
     "families",
     "get_method",
     "get_predictor",
+    "largest_stable_steps",
     "register_family",
     "stencil_steps",
 ]

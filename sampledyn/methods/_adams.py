@@ -47,6 +47,7 @@ from ._base import (
 )
 from ._nodes import corner_patterns, history_nodes, lagrange_integrals, pattern_nodes
 from ._program import Combination, Stage, StepProgram
+from ._stability import multistep_amplification
 
 __all__ = [
     "STABILITY_INTERVAL_MIN",
@@ -298,6 +299,13 @@ class AdamsRule(FixedRule):
         time_steps(data)  # strictly increasing, or a named error
         tau, hn = history_nodes(data.t, s, np.arange(s - 1, n - 1))
         return hn[:, None] * lagrange_integrals(tau, 0.0, 1.0)
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """Largest |zeta| of ``zeta^s - zeta^(s-1) - z sum_i a_i zeta^(s-1-i)`` at each
+        z = h lambda (the stability region of the AB_s recursion; ABu_s and ABj_s
+        weight their f-history with the same coefficients, so the homogeneous
+        recursion, and its region, is the same)."""
+        return multistep_amplification(self.coefficients, z)
 
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """``G = h a_s L`` on a uniform grid (eqs. (11)-(12), (24)-(25); the printed (11)

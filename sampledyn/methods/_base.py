@@ -36,6 +36,12 @@ one way):
 :class:`Estimator` (Ee, ABe_s: the rule fits the model's parameters on the data it
 predicts, so it has no noise bound and no fixed discrete-time map)
     ``estimate_and_predict(model, data, signal=None, *, after=None)``.
+:class:`Stability` (every rule but the estimated ones)
+    ``amplification(z)``: how much the rule multiplies the mode y' = lambda y per step
+    at z = h lambda, all z of an array at once: |R(z)| of a one-step rule (its
+    stability function), the largest root modulus of a multistep rule's
+    characteristic polynomial; stable where <= 1 (:mod:`sampledyn.methods._stability`,
+    :func:`largest_stable_steps`).
 :class:`DiscreteTimeSystem` (every fixed rule but ABj_s, and ZOH)
     ``discrete_step``: the step z+ = F(z, u) as data (:class:`DiscreteStep`:
     :class:`sampledyn.methods.StepProgram` for the rules built of f evaluations,
@@ -76,6 +82,7 @@ __all__ = [
     "Method",
     "NoiseAnalysis",
     "Predictor",
+    "Stability",
     "check_gain_args",
     "check_ratio",
     "fixed_step",
@@ -183,6 +190,17 @@ class NoiseAnalysis(Protocol):
         """s-th backward differences of the extrapolated derivative values, one row
         per prediction with a full difference stencil (possibly none); None without an
         error constant."""
+        ...
+
+
+@runtime_checkable
+class Stability(Protocol):
+    """A rule's linear stability on y' = lambda y (see the module docstring)."""
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """Growth per step at ``z = h lambda`` (complex array, any shape; result of that
+        shape): |R(z)| for a one-step rule, the largest |zeta| of the characteristic
+        polynomial for a multistep one. Stable where <= 1."""
         ...
 
 
@@ -429,9 +447,12 @@ def stage_inputs(
     uniform one (then ``signal.intersample`` gets the one offset ``c data.h``, as the
     Signal protocol has it; a non-uniform grid needs a signal that takes an array of
     offsets, as :class:`sampledyn.signals.Signal` does). From ``signal`` (its held
-    part taken at ``t_n``) when given, else the sampled input held over the interval
-    (zero-order hold).
+    part taken at ``t_n``) when given, else from the signal the data remember
+    (``data.signal``, set by :func:`sampledyn.simulate`), else the sampled input held
+    over the interval (zero-order hold).
     """
+    if signal is None:
+        signal = getattr(data, "signal", None)
     if signal is None or c == 0.0:
         return data.u[:-1]
     tau = c * data.h if steps is None else c * steps

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from fractions import Fraction
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,7 @@ from ._base import (
     stage_inputs,
 )
 from ._program import Combination, Stage, StepProgram, stage_jacobians
+from ._stability import polynomial_amplification
 
 __all__ = ["RK_BLOCK", "TABLEAUX", "ButcherTableau", "RungeKutta"]
 
@@ -202,6 +204,17 @@ class RungeKutta(FixedRule):
     def step_rule(self) -> str:
         return "step h_n = t_n+1 - t_n per interval"
 
+    @property
+    def stability_polynomial(self) -> tuple[Fraction, ...]:
+        """Coefficients of the stability function ``R(z) = 1 + sum_j (b^T A^(j-1) 1)
+        z^j``, z^0 first, exact (an explicit tableau: a polynomial of degree s; 1, 1,
+        1/2, 1/6, 1/24 for the classical RK4)."""
+        return _stability_polynomial(self.tableau)
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """|R(z)| at each z = h lambda (:attr:`stability_polynomial`)."""
+        return polynomial_amplification(self.stability_polynomial, z)
+
     def predict(
         self,
         model: Model,
@@ -320,6 +333,20 @@ class RungeKutta(FixedRule):
             ("z", 0), tuple((float(b), ("k", i)) for i, b in enumerate(tab.b)), True
         )
         return StepProgram(self.name, (("x", 0),), tuple(stages), update)
+
+
+@lru_cache(maxsize=16)
+def _stability_polynomial(tab: ButcherTableau) -> tuple[Fraction, ...]:
+    """:attr:`RungeKutta.stability_polynomial` of a tableau."""
+    s = tab.stages
+    v = [Fraction(1)] * s  # A^(j-1) 1, starting at j = 1
+    coeffs = [Fraction(1)]
+    for _ in range(s):
+        coeffs.append(sum((b * vi for b, vi in zip(tab.b, v, strict=True)), Fraction(0)))
+        v = [sum((tab.a[i][k] * v[k] for k in range(s)), Fraction(0)) for i in range(s)]
+    while len(coeffs) > 1 and coeffs[-1] == 0:
+        coeffs.pop()
+    return tuple(coeffs)
 
 
 def _combine(

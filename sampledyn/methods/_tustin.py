@@ -15,7 +15,7 @@ Either way the prediction is the trapezoid solution to within ``tol (1 + |x_i|)`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
@@ -28,6 +28,7 @@ from ..exceptions import ConvergenceError
 from ..models import Model
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
 from ._program import Combination, Stage, StepProgram
+from ._stability import rational_amplification
 
 __all__ = ["NEWTON_BLOCK", "Tustin"]
 
@@ -57,6 +58,14 @@ class Tustin(FixedRule):
     def __post_init__(self) -> None:
         checks.positive(self.tol, "tol")
         checks.count(self.max_iter, "max_iter")
+
+    def with_newton(self, tol: float | None = None, max_iter: int | None = None) -> Tustin:
+        """A copy with other Newton options (None keeps the current one)."""
+        return replace(
+            self,
+            tol=self.tol if tol is None else float(tol),
+            max_iter=self.max_iter if max_iter is None else int(max_iter),
+        )
 
     @property
     def family(self) -> str:
@@ -138,8 +147,10 @@ class Tustin(FixedRule):
                     f"Tustin's Newton iteration did not converge in {self.max_iter} "
                     f"iterations on {bad.size} of the {hi - lo} intervals {lo}..{hi - 1} "
                     f"(first: n={n}, t={t1[n] - h[n]:g} s, h_n={h[n]:g} s). The step may be "
-                    "too large for the model's stiffness there; raise `max_iter` or `tol`, or "
-                    "use a smaller h."
+                    "too large for the model's stiffness there; raise the iterations or the "
+                    "tolerance (sampledyn.methods.Tustin(max_iter=..., tol=...), the `newton` "
+                    "argument of evaluate_log / advise, --newton-max-iter / --newton-tol of "
+                    "`sampledyn evaluate` and `advise`), or use a smaller h."
                 )
         return x
 
@@ -173,6 +184,11 @@ class Tustin(FixedRule):
             if active.size == 0:
                 return None
         return active
+
+    def amplification(self, z: Any) -> np.ndarray:
+        """``|R(z)| = |(1 + z/2) / (1 - z/2)|`` at each z = h lambda: <= 1 on the whole
+        left half-plane (A-stable), so every step is stable on a mode with Re lambda <= 0."""
+        return rational_amplification((1.0, 0.5), (1.0, -0.5), z)
 
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
         """The implicit solution moves by ``d = delta + (h/2) L (delta + d)``, so

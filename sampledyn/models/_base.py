@@ -511,6 +511,36 @@ class ParameterArrayModel(CompiledModel):
         return self._param_names
 
     @property
+    def param_bounds(self) -> dict[str, tuple[float, float]]:
+        """Physical bounds (lo, hi) of parameters, by name: an estimate outside them
+        contradicts the physics (e.g. a negative damping) and is flagged by
+        :func:`sampledyn.estimate`. Only the parameters declared."""
+        return dict(getattr(self, "_bounds", {}))
+
+    def _set_bounds(self, bounds: Any) -> None:
+        """Check and store ``bounds``: {name or Symbol: (lo, hi)}, lo < hi (either may be
+        +-inf)."""
+        out: dict[str, tuple[float, float]] = {}
+        for key, pair in dict(bounds or {}).items():
+            name = str(getattr(key, "name", key))
+            if name not in self._param_names:
+                raise ValueError(
+                    f"`param_bounds` names {name!r}, not a parameter; parameters: "
+                    f"{list(self._param_names)}."
+                )
+            try:
+                lo, hi = (float(v) for v in pair)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"`param_bounds[{name!r}]` must be a pair (lo, hi), got {pair!r}; e.g. "
+                    "(0, inf) for a damping."
+                ) from None
+            if not lo < hi:
+                raise ValueError(f"`param_bounds[{name!r}]` needs lo < hi, got ({lo}, {hi}).")
+            out[name] = (lo, hi)
+        self._bounds = out
+
+    @property
     def default_x0(self) -> np.ndarray:
         return self._x0.copy()
 

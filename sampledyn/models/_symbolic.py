@@ -662,6 +662,9 @@ class SymbolicModel(ParameterArrayModel):
         Default: "" (unspecified).
     param_units : mapping {name: str}, optional
         Units of parameters, by symbol name.
+    param_bounds : mapping {Symbol or name: (lo, hi)}, optional
+        Physical bounds of parameters (e.g. ``{c: (0, math.inf)}`` for a damping): an
+        estimate outside them is flagged (:attr:`EstimationResult.flags`).
     x0 : array_like, shape (nx,), optional
         Default initial state of :func:`sampledyn.simulate`. Default zeros: choose one
         that is not an equilibrium if the model should move without input.
@@ -708,6 +711,7 @@ class SymbolicModel(ParameterArrayModel):
         input_names: Sequence[str] | None = None,
         input_units: Sequence[str] | None = None,
         param_units: Mapping[str, str] | None = None,
+        param_bounds: Mapping[Any, Any] | None = None,
         x0: Any = None,
         name: str = "symbolic model",
     ) -> None:
@@ -724,6 +728,7 @@ class SymbolicModel(ParameterArrayModel):
         self.input_units = _names(input_units, ("",) * code.nu, "input_units")
         names = tuple(s.name for s in p_syms)
         self._set_params(names, p_vals, param_units, x0, code.nx)
+        self._set_bounds(param_bounds)
         self.name = str(name)
 
     # ----------------------------------------------------------------- attributes

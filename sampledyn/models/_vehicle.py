@@ -659,6 +659,20 @@ class Vehicle(CompiledModel):
     def param_names(self) -> tuple[str, ...]:
         return tuple(_PARAMS)
 
+    @property
+    def param_bounds(self) -> dict[str, tuple[float, float]]:
+        """Physical bounds of the parameters whose sign physics fixes: mass, the moments
+        of inertia, the volume, rho, g, the thruster coefficients and the diagonal
+        added mass and damping (stored as magnitudes, Fossen's X_udot, X_u, X_|u|u
+        being minus these) are >= 0. An estimate outside is flagged by
+        :func:`sampledyn.estimate` (a negative damping: the fit absorbed noise or
+        unmodelled forces)."""
+        positive = (
+            "mass", "Ix", "Iy", "Iz", "volume", "rho", "g", "K1", "K2", "n_max", "T_n",
+            *ADDED_MASS_NAMES, *LINEAR_DAMPING_NAMES, *QUADRATIC_DAMPING_NAMES,
+        )  # fmt: skip
+        return {n: (0.0, math.inf) for n in positive}
+
     def with_buoyancy(self, percent: float) -> Vehicle:
         """The same vehicle with its displaced volume set so that the buoyancy is
         ``B = (1 + percent / 100) W`` (the paper's Fig. 7 run uses +1 %).

@@ -17,6 +17,11 @@ plots):
   the largest h under a tolerance (:func:`largest_h`);
 * sensitivity to the pitch (J singular at 90 deg, :func:`pitch_sensitivity`) and a
   vehicle of scaled inertia (:func:`scaled_inertia`);
+* the noise floor: the one-step error measurement noise alone gives through a rule
+  (:func:`noise_floor_squares`);
+* stability before prediction: the largest step at which each rule is stable along
+  sampled data, from the Jacobian's eigenvalues and the rule's own stability
+  function or region (:func:`stability_limits`);
 * the reference inputs of the analysis (:func:`gentle_input`, :func:`pitch_input`).
 
 The studies that simulate and measure live in the experiment layer, on its engine:
@@ -36,6 +41,7 @@ from ._bound import subsample as subsample
 from ._curves import error_curves as error_curves
 from ._curves import largest_h as largest_h
 from ._domain import Domain as Domain
+from ._floor import noise_floor_squares as noise_floor_squares
 from ._gains import error_constant as error_constant
 from ._gains import first_order_gain as first_order_gain
 from ._gains import noise_gain as noise_gain
@@ -45,6 +51,7 @@ from ._jacobians import jacobian_bounds as jacobian_bounds
 from ._jacobians import jacobian_norms as jacobian_norms
 from ._path import path_prediction as path_prediction
 from ._rates import fastest_time_constant as fastest_time_constant
+from ._stability import stability_limits as stability_limits
 from ._sweeps import pitch_sensitivity as pitch_sensitivity
 from ._sweeps import scaled_inertia as scaled_inertia
 
@@ -59,11 +66,13 @@ __all__ = [
     "jacobian_bounds",
     "jacobian_norms",
     "largest_h",
+    "noise_floor_squares",
     "noise_gain",
     "path_prediction",
     "pitch_input",
     "pitch_sensitivity",
     "scaled_inertia",
+    "stability_limits",
     "state_blocks",
     "subsample",
 ]

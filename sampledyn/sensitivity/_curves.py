@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ import numpy as np
 from .. import _checks as checks
 from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
+from ..exceptions import NumericalError, SingularPitchError
 from ..models import Model
 from ._bound import assemble_bound, jacobian_pair, subsample
 from ._domain import Domain
@@ -51,6 +52,11 @@ class ErrorCurves:
         Noise part and total of the domain bound (24)-(25); NaN where no bound was
         computed (no domain: the Jacobian maxima (19)-(23) exist for the 6-DoF
         vehicle only).
+    failed : mapping method -> (h, reason)
+        The rules whose prediction failed at some period of the grid (Newton not
+        converging, a state at the singular pitch, a non-finite prediction), with the
+        first such h (s) and why: their curves are NaN from there on, so ``largest_h``
+        ends before it.
     """
 
     h: np.ndarray
@@ -62,6 +68,7 @@ class ErrorCurves:
     predicted: Mapping[str, np.ndarray]
     bound_noise: Mapping[str, np.ndarray]
     bound: Mapping[str, np.ndarray]
+    failed: Mapping[str, tuple[float, str]] = field(default_factory=dict)
 
     def crossing(self, method: str) -> tuple[float | None, float | None]:
         """The h (s) where the truncation curve meets the predicted noise curve, per
@@ -108,6 +115,11 @@ def usable_periods(methods: Sequence[Any], base: Trajectory, ks: Sequence[int]) 
     return [k for k in ks if (base.n_samples - 1) // k + 1 >= need]
 
 
+# What ends a rule's curve (the other rules' curves go on): its prediction failing
+# at a period of the grid.
+_CURVE_FAILURES = (NumericalError, SingularPitchError, FloatingPointError)
+
+
 def error_curves(
     model: Model,
     methods: Sequence[Any],
@@ -119,14 +131,24 @@ def error_curves(
     signal: Any = None,
     *,
     samples: int = 5000,
+    amplitudes: Any = None,
 ) -> ErrorCurves:
     """Curves of :class:`ErrorCurves` at the periods ``k base.h`` for k in ``ks``.
 
     ``model`` is a vehicle, or any model whose states are positions/angles and rates
     (:func:`state_blocks`); ``domain`` None computes no bound (its curves NaN).
     Periods that leave fewer than 3 predictions for some rule are dropped.
+    ``amplitudes`` (shape (nx,), state units) replaces the noise amplitudes of
+    ``eta_pct``, ``v_pct`` (per-state levels, e.g. estimated from a log).
+
+    A rule whose prediction fails at some period (:attr:`ErrorCurves.failed`) has NaN
+    there and at every longer period; the other rules' curves are complete.
     """
-    amp = noise_amplitudes(model.state_units, eta_pct, v_pct)
+    amp = (
+        noise_amplitudes(model.state_units, eta_pct, v_pct)
+        if amplitudes is None
+        else np.asarray(amplitudes, dtype=float)
+    )
     reports = None if domain is None else jacobian_pair(model, domain, amp, samples)
     ms = [supported_method(m, "methods") for m in methods]
     ks = usable_periods(ms, base, ks)
@@ -134,32 +156,62 @@ def error_curves(
         raise ValueError("the reference run is too short for the requested periods.")
     keys = ("truncation", "predicted_noise", "predicted", "bound_noise", "bound")
     store: dict[str, dict[str, np.ndarray]] = {
-        key: {m.name: np.empty((len(ks), 2)) for m in ms} for key in keys
+        key: {m.name: np.full((len(ks), 2), np.nan) for m in ms} for key in keys
     }
+    failed: dict[str, tuple[float, str]] = {}
     for row, k in enumerate(ks):
         clean = subsample(base, k)
         cache: dict[Any, Any] = {}  # f and df/dx at these samples, shared by the rules
         for m in ms:
-            p = path_prediction(model, m, clean, amp, signal, eta_pct, v_pct, cache=cache)
-            store["truncation"][m.name][row] = p.truncation
-            store["predicted_noise"][m.name][row] = p.noise
-            store["predicted"][m.name][row] = (p.eta, p.v)
-            if reports is None:
-                store["bound_noise"][m.name][row] = math.nan
-                store["bound"][m.name][row] = math.nan
+            if m.name in failed:
                 continue
-            b = assemble_bound(
-                m, clean.h, eta_pct, v_pct, amp, *reports, p.truncation, samples=clean
-            )
-            store["bound_noise"][m.name][row] = (b.eta.noise, b.v.noise)
-            store["bound"][m.name][row] = b.total
+            try:
+                _curve_point(store, row, m, model, clean, amp, signal, cache, reports, samples,
+                             eta_pct, v_pct)  # fmt: skip
+            except _CURVE_FAILURES as exc:
+                failed[m.name] = (
+                    float(clean.h),
+                    f"{type(exc).__name__}: {' '.join(str(exc).split())}",
+                )
+                for key in keys:
+                    store[key][m.name][row:] = np.nan
     return ErrorCurves(
         h=base.h * np.asarray(ks, dtype=float),
         eta_pct=float(eta_pct),
         v_pct=float(v_pct),
         methods=tuple(m.name for m in ms),
+        failed=failed,
         **store,
     )
+
+
+def _curve_point(
+    store: dict[str, dict[str, np.ndarray]],
+    row: int,
+    m: Any,
+    model: Any,
+    clean: Trajectory,
+    amp: np.ndarray,
+    signal: Any,
+    cache: dict[Any, Any],
+    reports: Any,
+    samples: int,
+    eta_pct: float,
+    v_pct: float,
+) -> None:
+    """Row ``row`` of every curve of rule ``m`` at the samples ``clean``."""
+    p = path_prediction(model, m, clean, amp, signal, eta_pct, v_pct, cache=cache)
+    if not (np.isfinite(p.eta) and np.isfinite(p.v)):
+        raise FloatingPointError(f"the prediction is not finite at h = {clean.h:g} s")
+    store["truncation"][m.name][row] = p.truncation
+    store["predicted_noise"][m.name][row] = p.noise
+    store["predicted"][m.name][row] = (p.eta, p.v)
+    if reports is None:
+        return
+    jac, widened = reports
+    b = assemble_bound(m, clean.h, eta_pct, v_pct, amp, jac, widened, p.truncation, samples=clean)
+    store["bound_noise"][m.name][row] = (b.eta.noise, b.v.noise)
+    store["bound"][m.name][row] = b.total
 
 
 def rank_key(eta: float, v: float, rank_by: str) -> float:

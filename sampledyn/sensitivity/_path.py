@@ -92,6 +92,8 @@ def path_prediction(
         A vehicle, or any model whose states are positions/angles (units m, rad) and
         rates (m/s, rad/s) (:func:`state_blocks`), with an exact Jacobian.
     method : str or method object
+        A fixed rule, or any object with ``predict`` and ``prediction_jacobians`` (a
+        baseline, :mod:`sampledyn._baselines`).
     clean : Trajectory
         Exact samples at the sampling period of interest, ``x`` shape (N, nx).
     amplitudes : ndarray, shape (nx,)
@@ -104,7 +106,10 @@ def path_prediction(
         Kept by the caller for several rules on the same ``clean``: f and df/dx at the
         samples are then computed once (see :meth:`sampledyn.methods.Method.predict`).
     """
-    m = supported_method(method)
+    # a rule with a noise bound by name or object, or any object that predicts and
+    # gives its prediction Jacobians (the baselines of sampledyn._baselines)
+    is_object = not isinstance(method, str) and hasattr(method, "prediction_jacobians")
+    m: Any = method if is_object else supported_method(method)
     eta, v = state_blocks(clean.state_units)
     a = block_noise(amplitudes, clean.state_units)
     x_hat = m.predict(model, clean, signal, cache=cache)

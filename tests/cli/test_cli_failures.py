@@ -300,7 +300,7 @@ def test_evaluate_json(capsys):
     for key in ("source", "vehicle", "samples", "h", "jitter", "t_start", "t_end", "notes",
                 "norm", "after", "rows", "estimation", "warnings", "out"):  # fmt: skip
         assert key in doc
-    assert [r["method"] for r in doc["rows"]] == ["E", "AB2"]
+    assert [r["method"] for r in doc["rows"]] == ["hold", "kinematics", "E", "AB2"]
     assert {"order", "err_eta", "err_v", "err_all", "samples"} <= set(doc["rows"][0])
     assert doc["estimation"] is None and doc["norm"] == "rms"
 

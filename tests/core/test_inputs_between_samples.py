@@ -123,3 +123,32 @@ class _BadBreaks(_HiddenJump):
 def test_breakpoints_on_a_sample_time_are_a_signal_error():
     with pytest.raises(ValueError, match=r"returned 0\.1 s, which is a sample time"):
         sd.simulate(Linear(), _BadBreaks(), T=0.3, h=0.1)
+
+
+def test_a_simulated_trajectory_remembers_its_input_for_rk_and_tustin():
+    """issue 21 item 6: without `signal=`, RK4 and T on a run whose input moves between
+    samples used to hold the sampled input (355x larger errors in the issue); the
+    Trajectory made by simulate now carries its signal and the rules use it, the
+    same numbers as with signal= given, kept by noise and subsampling."""
+    import warnings
+
+    import sampledyn as sd
+
+    auv = sd.models.AUVLike()
+    sig = sd.signals.Sinusoidal([0.0], [5.0], [0.7], None)
+    traj = sd.simulate(auv, sig, 20.0, 0.05)
+    assert traj.signal is sig and sd.add_noise(traj, 1, 1).signal is sig
+    assert traj.subsample(2).signal is sig
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no held-input warning: the input is known
+        for name in ("RK4", "T"):
+            e = sd.local_errors(sd.predict(name, auv, traj), traj)
+            given = sd.local_errors(sd.predict(name, auv, traj, signal=sig), traj)
+            np.testing.assert_array_equal(e, given)
+    log_like = traj.replace(u=traj.u)  # a new u: the signal is dropped
+    assert log_like.signal is None
+    with pytest.warns(UserWarning, match="RK4: the input between samples is not known"):
+        held = sd.local_errors(sd.predict("RK4", auv, log_like), log_like)
+    # the held input errs by O(h^2 u') per step against RK4's O(h^5): 24x here
+    ratio = np.nanmax(np.abs(held)) / np.nanmax(np.abs(e))
+    assert ratio > 10

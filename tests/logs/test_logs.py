@@ -187,6 +187,6 @@ def test_evaluate_cli_prints_the_table_and_estimates(tmp_path, capsys):
     for name in ("E ", "AB2", "AB4", "RK4", "T ", "ABe2", "psi unwrapped", "AB2 estimate"):
         assert name in text
     table = {r["method"]: r for r in csv.DictReader(out.open())}
-    assert list(table) == ["E", "AB2", "AB4", "RK4", "T", "ABe2"]
+    assert list(table) == ["hold", "kinematics", "E", "AB2", "AB4", "RK4", "T", "ABe2"]
     # the estimated model fits its own one-step errors at least as well as the file's
     assert float(table["ABe2"]["err_v"]) <= float(table["AB2"]["err_v"])

@@ -67,8 +67,8 @@ def test_a_time_column_in_the_wrong_unit_is_refused_with_the_fix(
     err = _refused(capsys, log, "bluerov2_heavy", "--methods", "E,AB2")
     assert err.startswith("sampledyn: error: log.csv: sampling period") and f"{fix}" in err
     # the check can be turned off: then the (meaningless) errors are computed
-    rows = evaluate_log(vehicle, data, ["E"], max_h_rate=math.inf).rows
-    assert rows[0]["err_all"] > 1.0
+    row = evaluate_log(vehicle, data, ["E"], max_h_rate=math.inf).row("E")
+    assert row["err_all"] > 1.0
 
 
 def test_a_plausible_period_passes_and_is_reported(vehicle):
@@ -184,8 +184,8 @@ def test_a_log_too_short_says_so(frame, tmp_path, capsys, rows, methods, message
 
 def test_a_log_just_long_enough_gives_one_prediction(vehicle, frame, tmp_path):
     frame.iloc[:5].to_csv(tmp_path / "log.csv", index=False)
-    rows = evaluate_log(vehicle, read_log(tmp_path / "log.csv", vehicle), ["AB4"]).rows
-    assert rows[0]["samples"] == 1
+    result = evaluate_log(vehicle, read_log(tmp_path / "log.csv", vehicle), ["AB4"])
+    assert result.row("AB4")["samples"] == 1
 
 
 # -- 4. after --------------------------------------------------------------------------

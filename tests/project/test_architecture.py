@@ -47,6 +47,7 @@ LAYERS: dict[str, int] = {
     "sampledyn._noise": 3,
     "sampledyn._local_errors": 3,
     "sampledyn._predict": 3,
+    "sampledyn._baselines": 3,
     "sampledyn.sensitivity": 4,
     "sampledyn._estimate": 4,
     "sampledyn._discretize": 5,

@@ -205,5 +205,9 @@ def test_the_public_surface_is_curated():
     # Counted as the names in __all__ of the public modules (docs/design.md, Public
     # API): 369 before the curation of issue 19, everything the packages needed from
     # one another. A new export is a decision; raise this bound with the reason.
+    # 158 after issue 19; issue 21 adds six that users call to read a table of real
+    # data: sd.estimate_noise, sd.get_baseline, methods.Stability (the protocol beside
+    # the others) and methods.largest_stable_steps, sensitivity.stability_limits and
+    # sensitivity.noise_floor_squares.
     total = sum(len(importlib.import_module(m).__all__) for m in PUBLIC_MODULES)
-    assert total <= 160, total
+    assert total <= 164, total
