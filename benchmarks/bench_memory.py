@@ -24,15 +24,17 @@ import argparse
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 from _rows import row, write_json
 
 CHILD = r"""
-import json, resource, sys, tracemalloc, warnings
+import json, sys, tracemalloc, warnings
 import numpy as np
 import sampledyn as sd
 from sampledyn.experiments._rov import fig7_vehicle
 from sampledyn.signals import fig6_thrusters
+from _peak import PeakMemory
 
 case, T, h, name = sys.argv[1], float(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
 with warnings.catch_warnings():
@@ -43,21 +45,7 @@ model = sd.models.AttitudeHold(vehicle, 40.0, 6.0) if name == "bluerov2_heavy" e
 signal = fig6_thrusters(vehicle)
 sd.simulate(model, signal, T=1.0, h=h)  # compile and warm every kernel
 
-def rss(field):
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith(field):
-                return int(line.split()[1]) * 1024
-    raise KeyError(field)
-
-try:
-    with open("/proc/self/clear_refs", "w") as fh:
-        fh.write("5")  # reset the peak RSS (VmHWM) to the current RSS
-    reset = True
-except OSError:
-    reset = False
-before = rss("VmRSS:")
-before_max = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+peak = PeakMemory()
 tracemalloc.start()
 if case == "signal":
     t = np.arange(int(round(T / h)) + 1, dtype=float) * h
@@ -70,13 +58,12 @@ else:
         result += [traj.certificate.per_interval, traj.certificate.steps]
 traced_peak = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()
-peak = rss("VmHWM:") if reset else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 returned = sum(a.nbytes for a in result)
 print(json.dumps({
     "returned": returned,
-    "rss_growth": peak - (before if reset else max(before, before_max)),
+    "rss_growth": peak.growth(),
     "traced_peak": traced_peak,
-    "rss_method": "VmHWM" if reset else "ru_maxrss",
+    "rss_method": peak.method,
 }))
 """
 
@@ -85,6 +72,7 @@ def run(case: str, T: float, h: float, vehicle: str) -> dict:
     out = subprocess.run(
         [sys.executable, "-c", CHILD, case, str(T), str(h), vehicle],
         check=True,
+        cwd=Path(__file__).parent,
         capture_output=True,
         text=True,
     )

@@ -35,6 +35,7 @@ Benchmarks (the issue's rows they measure):
 ``rov``           ``bench_rov.py``: simulate with certificate / without
 ``discretize``    ``bench_discretize.py``: AB4 rollout, one f per sample
 ``memory``        ``bench_memory.py``: peak RSS / returned arrays, T = 50,000 s, h = 0.01 s
+``log_memory``    ``bench_log_memory.py``: peak RSS / arrays kept, a 10-million-row CSV log
 ``sweep``         ``bench_sweep.py --dask``: Dask LocalCluster / ``--workers 2``
 ``peers``         ``bench_peers.py``: exact samples against the best peer at equal accuracy
 """
@@ -64,6 +65,7 @@ BENCHES: dict[str, tuple[list[str], list[str]]] = {
     "rov": (["bench_rov.py"], ["bench_rov.py", "--rounds", "2"]),
     "discretize": (["bench_discretize.py"], ["bench_discretize.py"]),
     "memory": (["bench_memory.py"], ["bench_memory.py", "--T", "5000"]),
+    "log_memory": (["bench_log_memory.py"], ["bench_log_memory.py", "--rows", "1000000"]),
     "sweep": (
         ["bench_sweep.py", "--dask"],
         ["bench_sweep.py", "--dask", "--T", "120", "--repeat", "1"],

@@ -45,6 +45,7 @@ _EXPORTS: dict[str, str | None] = {
     "get_method": ".methods",
     "local_errors": "._local_errors",
     "logs": None,
+    "memory_limit": "._checks",
     "methods": None,
     "models": None,
     "predict": "._predict",
@@ -69,6 +70,7 @@ if TYPE_CHECKING:
     from . import sensitivity as sensitivity
     from . import signals as signals
     from ._baselines import get_baseline as get_baseline
+    from ._checks import memory_limit as memory_limit
     from ._discretize import DiscreteModel as DiscreteModel
     from ._discretize import LinearLaw as LinearLaw
     from ._discretize import discretize as discretize

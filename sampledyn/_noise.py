@@ -19,6 +19,7 @@ from . import _checks as checks
 from ._trajectory import Trajectory
 
 __all__ = [
+    "MAX_NOISE_PCT",
     "NOISE_ORDER",
     "RESOLVED",
     "NOISE_REFERENCE",
@@ -40,6 +41,12 @@ NOISE_REFERENCE: dict[str, tuple[str, float]] = {
 _DISTRIBUTIONS = ("uniform", "gaussian")
 
 
+#: Largest noise level (% of the reference magnitude of NOISE_REFERENCE): at 1000 %
+#: the noise is ten times the motion, the samples hold nothing of it, and the errors
+#: measure the noise alone (the paper goes to 20 %; 1e308 % made every error inf).
+MAX_NOISE_PCT = 1000.0
+
+
 def noise_amplitudes(state_units: tuple[str, ...], eta_pct: float, v_pct: float) -> np.ndarray:
     """Amplitude a_i of the noise on each state component (in its unit), shape (nx,).
 
@@ -48,6 +55,11 @@ def noise_amplitudes(state_units: tuple[str, ...], eta_pct: float, v_pct: float)
     for name, pct in (("eta_pct", eta_pct), ("v_pct", v_pct)):
         if not (isinstance(pct, int | float) and math.isfinite(pct) and pct >= 0):
             raise ValueError(f"`{name}` must be a finite percentage >= 0, got {pct!r}.")
+        if pct > MAX_NOISE_PCT:
+            raise ValueError(
+                f"`{name}` = {pct:g} % is above {MAX_NOISE_PCT:g} %: the noise would be more "
+                "than ten times the motion, and the errors would measure the noise alone."
+            )
     amp = np.zeros(len(state_units))
     for i, unit in enumerate(state_units):
         if unit in NOISE_REFERENCE:

@@ -150,15 +150,24 @@ class _InputLimits:
         )
 
 
+# More samples than any machine holds (8 PB of times alone): refused before T / h is
+# rounded (which would overflow).
+_MAX_SAMPLES = 1e15
+
+
 def check_period(h: Any, T: Any) -> int:
     """The number of sampling intervals n = T / h of a run, after checking ``h`` (a
-    sampling period) and ``T`` (at least h, an integer multiple of it)."""
+    sampling period, at least :data:`sampledyn._checks.MIN_STEP`) and ``T`` (at least h,
+    an integer multiple of it, not more samples than any memory holds)."""
     h = checks.period(h)
+    checks.check_step(h)
     T = checks.number(T, "T", unit="s")
     if T < h:
         raise ArgumentError(
             "T", f"duration `T` = {T} s must be at least one sampling period h = {h} s."
         )
+    if T / h > _MAX_SAMPLES:
+        checks.check_memory(math.inf, f"T / h = {T:g} / {h:g} = {T / h:.3g} samples", "the run")
     n = checks.integer_ratio(T, h)
     if n is None:
         raise ArgumentError("T", f"`T` = {T} s must be an integer multiple of `h` = {h} s.")
@@ -257,6 +266,11 @@ def simulate(
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
     checks.count(max_steps, "max_steps")
+    checks.check_memory(
+        checks.trajectory_bytes(n_int + 1, model.nx, model.nu, certify=certify),
+        f"T / h = {T:g} s / {h:g} s = {n_int + 1:.4g} samples",
+        "the exact samples",
+    )
 
     # t_n = n h (the same values as h * arange, without the integer temporary)
     t = np.arange(n_int + 1, dtype=float)

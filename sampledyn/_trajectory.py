@@ -120,6 +120,36 @@ class Certificate:
         )
 
 
+def _check_spacing(t: np.ndarray, h: float) -> None:
+    """``h`` must be the period of ``t``, nominally: within 25 % of the step of a
+    uniform grid (a nominal h that differs a little makes the rules take the actual
+    steps), within [0.5, 2.5] h of the median step of a non-uniform one (a jittered
+    log, or one with many one-record gaps). A grossly different h (h = 0.1 s on data
+    sampled every 0.01 s) would be taken for the period where one is needed (noise
+    gains, windows, discrete-time models) and be wrong without a sign."""
+    if t.shape[0] < 2:
+        return
+    d = np.diff(t)
+    if not (d > 0).all():
+        return  # not increasing: the rules refuse it, naming the sample (check_times)
+    rounding = 64 * np.finfo(float).eps * max(abs(float(t[0])), abs(float(t[-1])), h)
+    if float(d.max() - d.min()) <= 1e-6 * h + rounding:  # a uniform grid
+        step = float(t[-1] - t[0]) / (t.shape[0] - 1)
+        if abs(step - h) <= 0.25 * h:
+            return
+        raise ValueError(
+            f"`h` = {h:g} s disagrees with the spacing of `t`, {step:.9g} s (more than 25 % "
+            "off): give h = the step of t; a rule would take h for the period."
+        )
+    median = float(np.median(d))
+    if not 0.5 * h <= median <= 2.5 * h:
+        raise ValueError(
+            f"`h` = {h:g} s disagrees with the spacing of `t` (median step {median:.6g} s, "
+            "outside [0.5, 2.5] h): give the nominal period of t; a rule would take h for "
+            "the period."
+        )
+
+
 @dataclass(frozen=True)
 class Trajectory:
     """Sampled states and inputs (immutable).
@@ -191,6 +221,7 @@ class Trajectory:
                 f"`u` must have shape (len(t), nu) = ({t.shape[0]}, nu), got {u.shape}."
             )
         checks.period(self.h)
+        _check_spacing(t, float(self.h))
         nx = x.shape[1]
         if len(self.state_names) != nx or len(self.state_units) != nx:
             raise ValueError(

@@ -11,13 +11,15 @@ Catch by kind::
 * :class:`ArgumentError` (a ``ValueError``): a value that cannot be used; its
   ``argument`` names the argument, file entry or log column it came from, so that a
   caller (the command line) can name its own option for it. Its kinds:
-  :class:`LogFormatError`, :class:`VehicleParameterError`, :class:`SweepConfigError`.
+  :class:`LogFormatError`, :class:`VehicleParameterError`, :class:`SweepConfigError`,
+  :class:`WorkLimitError` (work or memory beyond a stated limit), :class:`FileContentError`.
 * :class:`NotAStoreError`, :class:`SingularPitchError` (``ValueError``).
 * :class:`NumericalError` (a ``RuntimeError``): a numerical method failed on these
   inputs; its kinds :class:`IntegrationError` (and its :class:`JumpRefused`: f jumps
   where the motion is not defined) and :class:`ConvergenceError`.
 * :class:`EnvelopeExceeded` (a ``RuntimeError``): a sampled loop diverged.
 * :class:`JacobianUnavailableError` (a ``NotImplementedError``).
+* :class:`UnsafeCacheError` (a ``PermissionError``): a kernel cache others could write.
 * :class:`UsageError`: command-line options that do not apply (exit status 2).
 """
 
@@ -28,6 +30,7 @@ from typing import Any
 __all__ = [
     "ArgumentError",
     "ConvergenceError",
+    "FileContentError",
     "EnvelopeExceeded",
     "IntegrationError",
     "JacobianUnavailableError",
@@ -37,8 +40,10 @@ __all__ = [
     "NumericalError",
     "SingularPitchError",
     "SweepConfigError",
+    "UnsafeCacheError",
     "UsageError",
     "VehicleParameterError",
+    "WorkLimitError",
 ]
 
 
@@ -73,6 +78,19 @@ class SweepConfigError(ArgumentError):
     def key(self) -> str:
         """The offending entry of the grid (the same as ``argument``)."""
         return self.argument
+
+
+class WorkLimitError(ArgumentError):
+    """A computation refused before it started: its estimated memory (or work) is
+    beyond the stated limit, or a bound with a stated reason (the smallest period, the
+    largest order); the message names the argument, the estimate, the limit and how
+    to raise it where it can be raised."""
+
+
+class FileContentError(ArgumentError):
+    """A file that cannot be what it should be (not a regular file of a bounded size,
+    not UTF-8 text, nested too deep, not TOML or JSON); ``argument`` is the file, and
+    the message names it."""
 
 
 class NotAStoreError(ValueError):
@@ -131,6 +149,11 @@ class EnvelopeExceeded(RuntimeError):
 class JacobianUnavailableError(NotImplementedError):
     """The model has no exact Jacobian (sampledyn never falls back to finite
     differences); the message says how to supply one."""
+
+
+class UnsafeCacheError(PermissionError):
+    """A kernel-cache folder or file that another user could have written: refused,
+    never used (the message names the reason and the variable to set)."""
 
 
 class UsageError(Exception):

@@ -1,6 +1,6 @@
 """Fault injection against real ``sampledyn sweep`` processes on a small grid.
 
-    python tests/fault_injection.py [--T 300] [--keep DIR]
+    python tests/fault_injection.py [--T 300] [--keep DIR] [--only CASE,...]
 
 Runs each fault, then (where the fault allows) reruns the same command, and prints a
 Markdown table: what was tried, the exit statuses, whether every cell of the grid is
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import shutil
 import signal
 import sqlite3
@@ -23,6 +24,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -128,6 +130,33 @@ def interrupt(work: Path, T: float, sig: signal.Signals) -> Outcome:
         left,
     )
     if status != "interrupted" or not one_line:
+        out.verdict = "FAILED"
+    return out
+
+
+def worker_killed(work: Path, T: float) -> Outcome:
+    """One worker process killed (-9) mid-run: one line, exit 6, the run marked, the
+    other worker stopped, and a rerun computes the rest."""
+    cfg, db = write_grid(work / "grid.toml", T), work / "worker.db"
+    proc = start("sweep", str(cfg), "--store", str(db), "--workers", "2", "--no-progress")
+    workers = wait_for_children(proc.pid, 2, 120)
+    kept = wait_for_cells(db, 10, proc, 120)
+    os.kill(workers[0], signal.SIGKILL)
+    _, err = proc.communicate(timeout=120)
+    left = still_alive(workers, 10)
+    kill_all(left)
+    [(status,)] = query(db, "SELECT status FROM runs")
+    one_line = len(err.strip().splitlines()) == 1 and "worker process died" in err
+    rerun = _rerun(cfg, db)
+    out = _finish(
+        "one worker of `sweep --workers 2` killed (-9)",
+        f"after {kept} cells; run marked {status!r}, "
+        f"{'one line saying so' if one_line else 'BAD message'}; rerun",
+        [proc.returncode, rerun],
+        db,
+        left,
+    )
+    if proc.returncode != 6 or not one_line:
         out.verdict = "FAILED"
     return out
 
@@ -239,10 +268,184 @@ def foreign(work: Path, T: float) -> Outcome:
     )
 
 
+def _quick(*args: str, env: dict[str, str] | None = None, memory: int | None = None) -> Any:
+    """``sampledyn ARGS`` with an address-space limit (``memory`` bytes): a command that
+    tried to allocate beyond it would die with MemoryError (exit 1), not refuse."""
+
+    def limit() -> None:
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        if memory is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+
+    return subprocess.run(
+        [*CLI, *args], capture_output=True, text=True, timeout=300, preexec_fn=limit, env=env
+    )
+
+
+def _one_line(res: Any) -> bool:
+    errors = [x for x in res.stderr.strip().splitlines() if x.startswith("sampledyn: error:")]
+    return len(errors) == 1 and "Traceback" not in res.stderr
+
+
+def _row(fault: str, how: str, statuses: str, ok: bool) -> Outcome:
+    """A row of a case without a grid to count (stored / twice: not applicable)."""
+    return Outcome(fault, how, statuses, "-", "-", "none", "ok" if ok else "FAILED")
+
+
+def cache(work: Path, T: float) -> list[Outcome]:
+    """Cached kernels edited to plant code, then a cache folder another user could
+    write (mode 777): rewritten, or refused, and the planted code never runs."""
+    cfg = write_grid(work / "grid.toml", min(T, 30.0))
+    marker = work / "PLANTED_CODE_RAN"
+    root = work / "cache"
+    env = dict(os.environ, SAMPLEDYN_CACHE_DIR=str(root))
+
+    def sweep(name: str) -> Any:
+        return _quick("sweep", str(cfg), "--store", str(work / name), "--no-progress", env=env)
+
+    first = sweep("a.db")
+    sources = sorted((root / "kernels").glob("*.py"))
+    for src in sources:
+        src.write_text(src.read_text() + f"\nopen({str(marker)!r}, 'w').close()\n")
+    edited = sweep("b.db")
+    rewritten = sum(not src.read_text().endswith("close()\n") for src in sources)
+    ran = marker.exists()
+    warned = "rewritten" in edited.stderr
+    out = [
+        _row(
+            "kernel cache: cached sources edited to plant code",
+            f"{len(sources)} cached kernels edited; the next run rewrote {rewritten} "
+            f"({'with' if warned else 'WITHOUT'} a warning); planted code "
+            f"{'RAN' if ran else 'not run'}",
+            f"{first.returncode} / {edited.returncode}",
+            edited.returncode == 0 and not ran and bool(sources) and rewritten == len(sources),
+        )
+    ]
+    os.chmod(root / "kernels", 0o777)
+    opened = sweep("c.db")
+    said = "may be written by others" in opened.stderr and "SAMPLEDYN_CACHE_DIR" in opened.stderr
+    made = (work / "c.db").exists()
+    out.append(
+        _row(
+            "kernel cache: folder mode 777 (another user could plant code)",
+            f"refused, {'one line with the reason and the variable' if said else 'BAD message'}"
+            f"; store {'CREATED' if made else 'not created'}",
+            str(opened.returncode),
+            opened.returncode == 4 and said and _one_line(opened) and not made,
+        )
+    )
+    return out
+
+
+def output_over_input(work: Path, T: float) -> list[Outcome]:
+    """Outputs naming an input: refused before work, the store byte for byte intact."""
+    cfg = write_grid(work / "grid.toml", min(T, 30.0))
+    db = work / "s.db"
+    first = _rerun(cfg, db)
+    before = db.read_bytes()
+    rep = work / "rep"
+    rep.mkdir()
+    (rep / "figures").symlink_to(work, target_is_directory=True)
+    tries = {
+        "results --format csv --out STORE": ["--format", "csv", "--out", str(db)],
+        "results --format parquet --out STORE": ["--format", "parquet", "--out", str(db)],
+        "results --out STORE-wal (no such file now)": ["--out", str(db) + "-wal"],
+    }
+    out = []
+    for what, extra in [*tries.items(), ("report (figures/ a link to the store's folder)", None)]:
+        args = ["report", str(db), "--out", str(rep)] if extra is None else ["results", str(db)]
+        res = _quick(*args, *(extra or []))
+        intact = db.read_bytes() == before and not Path(str(db) + "-wal").exists()
+        out.append(
+            _row(
+                f"output over input: {what}",
+                f"{'refused in one line' if _one_line(res) else 'BAD message'}; store "
+                f"{'intact' if intact else 'CHANGED'}",
+                f"{first} / {res.returncode}",
+                res.returncode in (2, 4) and intact and _one_line(res),
+            )
+        )
+    return out
+
+
+# Grid keys changed for each oversized case (the rest of SLOW_GRID as it is).
+_OVERSIZED = {
+    "h = [1e-9]": {"h": "[1e-9]"},
+    "T = 1e12 s": {"h": "[0.01]", "T": "1e12"},
+    "a seed beyond int64": {"h": "[0.01]", "seeds": "[9223372036854775808]"},
+    "AB100000": {"h": "[0.01]", "methods": '["AB100000"]'},
+    "rms@smooth(-5)": {"h": "[0.01]", "norm": '"rms@smooth(-5)"'},
+}
+
+
+def _grid(path: Path, **keys: str) -> Path:
+    """SLOW_GRID (T = 30 s) with some keys replaced."""
+    lines = dict(
+        (line.split("=", 1)[0].strip(), line)
+        for line in write_grid(path, 30.0).read_text().splitlines()
+        if "=" in line
+    )
+    lines |= {k: f"{k} = {v}" for k, v in keys.items()}
+    path.write_text("\n".join(lines.values()) + "\n")
+    return path
+
+
+def oversized(work: Path, T: float) -> list[Outcome]:
+    """Work and memory bounded before they start: under a 3 GB address-space limit
+    each case refuses in one line, in seconds, creating nothing."""
+    big = work / "big_vehicle.toml"
+    with big.open("wb") as fh:
+        fh.truncate(17 << 20)  # sparse
+    fifo = work / "fifo.db"
+    os.mkfifo(fifo)
+    runs = {
+        f"a sweep with {name}": ["sweep", str(_grid(work / f"g{i}.toml", **keys)), "--store",
+                                 str(work / f"g{i}.db"), "--no-progress"]
+        for i, (name, keys) in enumerate(_OVERSIZED.items())
+    }  # fmt: skip
+    runs["a 17 MB vehicle file (sparse)"] = ["advise", "--vehicle", str(big)]
+    runs["a FIFO as the store"] = ["sweep", str(_grid(work / "f.toml")), "--store", str(fifo)]
+    out = []
+    for name, args in runs.items():
+        t0 = time.perf_counter()
+        res = _quick(*args, memory=3 << 30)
+        took = time.perf_counter() - t0
+        made = any(p.suffix == ".db" and p.name != "fifo.db" for p in work.iterdir())
+        out.append(
+            _row(
+                f"oversized: {name}",
+                f"refused in {took:.1f} s under a 3 GB address-space limit"
+                + ("" if _one_line(res) else ", BAD message")
+                + ("; a store CREATED" if made else "; no store"),
+                str(res.returncode),
+                res.returncode in (3, 4) and _one_line(res) and not made,
+            )
+        )
+    small = _grid(work / "small.toml", h="[0.01]", methods='["AB1", "AB2"]', eta_pct="[0]",
+                  v_pct="[0, 1]", seeds="1")  # fmt: skip
+    db = work / "w.db"
+    res = _quick("sweep", str(small), "--store", str(db), "--workers", "200", "--no-progress")
+    stored = query(db, "SELECT COUNT(*) FROM cells")[0][0] if db.exists() else 0
+    capped = "capped at" in res.stderr
+    out.append(
+        Outcome(
+            "oversized: --workers 200 on a 4-cell grid",
+            f"ran {'with a note: capped' if capped else 'NOT capped'}",
+            str(res.returncode),
+            f"{stored} / 4",
+            "0",
+            "none",
+            "ok" if res.returncode == 0 and capped and stored == 4 else "FAILED",
+        )
+    )
+    return out
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--T", type=float, default=300.0, help="run length of the grid (s)")
     parser.add_argument("--keep", help="folder to work in and keep (default: a temporary one)")
+    parser.add_argument("--only", help="run only these cases (comma-separated names)")
     args = parser.parse_args()
     work = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="sampledyn-faults-"))
     work.mkdir(parents=True, exist_ok=True)
@@ -257,12 +460,21 @@ def main() -> int:
         ("full_disk", lambda d: full_disk(d, args.T)),
         ("read_only", lambda d: read_only(d, args.T)),
         ("foreign", lambda d: foreign(d, args.T)),
+        ("sighup", lambda d: interrupt(d, args.T, signal.SIGHUP)),
+        ("worker_killed", lambda d: worker_killed(d, args.T)),
+        ("cache", lambda d: cache(d, args.T)),
+        ("output_over_input", lambda d: output_over_input(d, args.T)),
+        ("oversized", lambda d: oversized(d, args.T)),
     ]
+    if args.only:
+        chosen = set(args.only.split(","))
+        cases = [(n, c) for n, c in cases if n in chosen]
     for name, case in cases:
         folder = work / name
         folder.mkdir(exist_ok=True)
         print(f"running {name} ...", file=sys.stderr, flush=True)
-        outcomes.append(case(folder))
+        found = case(folder)
+        outcomes.extend(found if isinstance(found, list) else [found])
     print(f"Fault injection, grid of {SLOW_GRID_CELLS} cells (AUV-like, T = {args.T:g} s), ")
     print(f"`{' '.join(Path(c).name for c in CLI)} sweep`; {time.perf_counter() - t0:.0f} s.\n")
     print("| fault | what was done | exit statuses | cells stored / grid | stored or "

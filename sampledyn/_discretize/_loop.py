@@ -348,8 +348,13 @@ def run_loop(
     from .._simulate import check_period  # the simulator's own check of (h, T)
 
     n_int = check_period(h, T)
-    t = np.arange(n_int + 1, dtype=float) * float(h)
     nx, nu = int(plant.nx), int(plant.nu)
+    checks.check_memory(  # states, measurements, commands, inputs, noise, references
+        8.0 * (n_int + 1) * (3 + 5 * nx + 4 * nu),
+        f"T / h = {T:g} s / {h:g} s = {n_int + 1:.4g} samples",
+        "the closed-loop run",
+    )
+    t = np.arange(n_int + 1, dtype=float) * float(h)
     x0 = plant.default_x0 if x0 is None else x0
     x0 = checks.finite_array(x0, "x0", (nx,))
     noise_arr = _noise_array(plant, t, noise, seed, distribution)

@@ -29,7 +29,7 @@ from .. import _checks as checks
 from .._predict import check_measured
 from .._simulate import switching
 from .._trajectory import Trajectory
-from ..exceptions import ArgumentError, JacobianUnavailableError
+from ..exceptions import ArgumentError, ConvergenceError, JacobianUnavailableError
 from ..methods import DiscreteTimeSystem, Estimator, Method, get_method
 from ..methods._base import uniform_step
 from ..models import Model
@@ -342,7 +342,13 @@ class DiscreteModel:
         t : float
             t_n (s), for time-varying models.
 
-        Returns NaN entries where an implicit rule's Newton iteration fails.
+        Raises
+        ------
+        ConvergenceError
+            (a NumericalError) where the step of finite ``z`` and ``u`` is not finite:
+            an implicit rule's Newton iteration did not converge (as
+            :func:`sampledyn.predict` raises for it), or the model overflowed. (The
+            compiled :meth:`rollout` and :meth:`simulate` return NaN from there on.)
         """
         if self._step is None:
             self._kernels()
@@ -357,6 +363,13 @@ class DiscreteModel:
             out[c:] = u
         else:
             self._step(float(t), z, u, self._p, self.h, out)
+        if not np.isfinite(out).all() and np.isfinite(z).all() and np.isfinite(u).all():
+            raise ConvergenceError(
+                f"{self.method.name}: the step from t = {float(t):g} s (h = {self.h:g} s) is not "
+                "finite: an implicit rule's Newton iteration did not converge, or the model "
+                "overflowed; the step may be too large for the model's stiffness there: use a "
+                "smaller h, or check z (see `layout`)."
+            )
         return out
 
     def rollout(self, measured: Trajectory, k: int = 1) -> np.ndarray:

@@ -53,20 +53,19 @@ def _crossings(advice: Any) -> dict[str, list[float | None]]:
 
 def _input(text: str, model: Model) -> Any:
     """The signal of ``--input``: a registered input name or an inline TOML table."""
-    import tomllib
-
+    from .._files import parse_toml
     from ..models import ClosedLoop
     from ..signals._names import input_for
 
     text = text.strip()
     if text.startswith("{"):
         try:
-            spec = tomllib.loads(f"input = {text}")["input"]
-        except tomllib.TOMLDecodeError as exc:
+            spec = parse_toml(f"input = {text}", "`--input`")["input"]
+        except ValueError as exc:
             raise ValueError(
-                f"`--input`: {text!r} is not a TOML inline table ({exc}); e.g. "
+                f"`--input`: {text[:80]!r} is not a TOML inline table ({exc}); e.g. "
                 "--input '{ name = \"multilevel\", hold = 0.5 }'."
-            ) from exc
+            ) from None
     else:
         spec = {"name": text}
     plant = model.plant if isinstance(model, ClosedLoop) else model

@@ -28,6 +28,7 @@ __all__ = [
     "print_json",
     "progress",
     "refuse",
+    "refuse_overwriting_inputs",
     "writable_dir",
     "writable_file",
 ]
@@ -79,6 +80,13 @@ def common_options() -> argparse.ArgumentParser:
         action="store_true",
         default=argparse.SUPPRESS,
         help="no progress bars and no start-up line on stderr (errors and warnings still)",
+    )
+    p.add_argument(
+        "--max-memory",
+        metavar="SIZE",
+        default=argparse.SUPPRESS,
+        help="largest memory one computation may plan, e.g. 16G (default 4G, or "
+        "$SAMPLEDYN_MAX_MEMORY); larger plans are refused before they start",
     )
     p.add_argument(
         "--debug",
@@ -163,6 +171,64 @@ def writable_file(path: str | os.PathLike[str], name: str) -> Path:
         return p
     _check_creatable(p, name)
     return p
+
+
+def _overwrites(target: Path, many: bool, source: Path) -> bool:
+    """Would writing ``target`` (a file; with ``many``, a folder whose files are
+    written) destroy ``source`` (a file or a folder)?"""
+    from .._files import inside, same_file
+
+    if source.is_dir():
+        return inside(target, source)
+    return inside(source, target) if many else same_file(target, source)
+
+
+def refuse_overwriting_inputs(
+    out: Path, name: str, inputs: Mapping[str, Any], *, writes: Sequence[str] = ()
+) -> None:
+    """Refuse, before any work, an output that is (or resolves to) an input.
+
+    Parameters
+    ----------
+    out : Path
+        The output file, or with ``writes`` the output folder.
+    name : str
+        Its option (``--out``), for the message.
+    inputs : mapping
+        What the command reads: a label (``STORE``, ``--data``) -> a path, or None /
+        a name that is not a path (a built-in vehicle), skipped. A folder input (a
+        ROS 2 bag) holds every file below it.
+    writes : sequence of str
+        The names the command writes into the folder ``out``; a name ending in "/" is
+        a folder whose files it writes.
+
+    Raises
+    ------
+    UsageError
+        (exit 2) naming the option, the output and the input it would destroy.
+    """
+    targets = [(out / w.rstrip("/"), w.endswith("/")) for w in writes] if writes else [(out, False)]
+    for label, value in inputs.items():
+        if value is None:
+            continue
+        if not os.path.lexists(str(value)):
+            # (a store's side file comes and goes with its connections: its name is kept)
+            if "STORE's" in label and any(Path(value).resolve() == t.resolve()
+                                          for t, _ in targets):  # fmt: skip
+                refuse(
+                    f"`{name} {out}` is the name of the {label} {str(value)!r}; nothing was "
+                    f"written: give {name} another {'folder' if writes else 'file'}."
+                )
+            continue
+        source = Path(value)
+        for target, many in targets:
+            if _overwrites(target, many, source):
+                where = "" if target == out else f" (it writes {target})"
+                refuse(
+                    f"`{name} {out}`{where} would overwrite the input {label} {str(source)!r}; "
+                    f"nothing was written: give {name} another "
+                    f"{'folder' if writes else 'file'}."
+                )
 
 
 def _plain(value: Any) -> Any:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 from typing import TYPE_CHECKING, Any
 
@@ -14,6 +13,7 @@ from ._common import (
     option,
     print_json,
     refuse,
+    refuse_overwriting_inputs,
     registry,
     writable_file,
 )
@@ -119,6 +119,15 @@ def _json(args: argparse.Namespace, model: Model, data: Any, result: Any) -> dic
     }
 
 
+def _inputs(args: argparse.Namespace) -> dict[str, Any]:
+    """The files ``evaluate`` reads (a built-in vehicle name is none)."""
+    from ..models._names import is_model_file
+
+    vehicle = args.vehicle if is_model_file(args.vehicle) else None
+    mapping = args.mapping if isinstance(args.mapping, str) else None
+    return {"--data": args.data, "--vehicle": vehicle, "--mapping": mapping}
+
+
 def _plain(v: Any) -> Any:
     """A row value for JSON: NaN and inf as null."""
     return _finite(v) if isinstance(v, float) else v
@@ -143,6 +152,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         )
     newton = newton_options(args)
     out = writable_file(args.out, "--out") if args.out else None
+    if out is not None:
+        refuse_overwriting_inputs(out, "--out", _inputs(args))
 
     from ..experiments.sweep._inputs import build_model
     from ..logs import evaluate_log, read_log
@@ -169,10 +180,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         newton=newton,
     )  # fmt: skip
     if out is not None:
-        with out.open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(result.rows[0]))
-            writer.writeheader()
-            writer.writerows(result.rows)
+        from ..report._tables import write_csv
+
+        write_csv(result.rows, out)
     if args.format == "json":
         print_json(_json(args, model, data, result))
         return _status(result)

@@ -4,6 +4,7 @@ one line and an exit status (see :mod:`._status`)."""
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import signal
 import sys
@@ -17,10 +18,13 @@ from typing import Any, NoReturn
 from . import _advise, _evaluate, _methods, _reproduce, _sweep
 from ._common import common_options
 from ._status import (
+    EXIT_HANGUP,
     EXIT_INTERRUPTED,
     EXIT_PIPE,
     EXIT_TERMINATED,
+    HangUp,
     Terminated,
+    UsageError,
     classify,
     status_table,
 )
@@ -73,21 +77,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _raise_terminated(signum: int, frame: Any) -> None:
-    raise Terminated()
+    raise HangUp() if signum == _SIGHUP else Terminated()
+
+
+_SIGHUP = getattr(signal, "SIGHUP", None)
 
 
 @contextmanager
 def _sigterm_as_interrupt() -> Iterator[None]:
-    """SIGTERM unwinds the command like Ctrl-C (finished work is kept, workers are
+    """SIGTERM and SIGHUP unwind the command like Ctrl-C (finished work is kept, workers are
     stopped), in the main thread only (signals cannot be set elsewhere)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    signals = [signal.SIGTERM] + ([_SIGHUP] if _SIGHUP is not None else [])
+    previous = {s: signal.signal(s, _raise_terminated) for s in signals}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _format_warning(
@@ -130,8 +139,9 @@ def _is_terminal(stream: Any) -> bool:
 
 
 # What a first run after an install compiles, measured: `reproduce fig7` on the
-# 2-core development machine (benchmarks/bench_fig7.py, row "first run").
-COMPILE_ESTIMATE = "about 10 s"
+# 2-core development machine, about 13 CPU s of compiling (benchmarks/bench_fig7.py,
+# row "first run"; docs/benchmarks.md).
+COMPILE_ESTIMATE = "about 15 s"
 
 
 def compile_notice(command: str, stream: Any) -> Callable[[], None]:
@@ -166,6 +176,21 @@ def compile_notice(command: str, stream: Any) -> Callable[[], None]:
     return lambda: event.unregister("numba:compile", listener)
 
 
+@contextmanager
+def _memory(args: argparse.Namespace) -> Iterator[None]:
+    """``--max-memory`` for this command and its worker processes."""
+    from .._checks import memory_limit, parse_bytes
+
+    size = getattr(args, "max_memory", None)
+    if size is not None:
+        try:
+            parse_bytes(size, "--max-memory")
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+    with memory_limit(size):
+        yield
+
+
 def _options(parser: argparse.ArgumentParser, command: str) -> dict[str, str]:
     """The options of ``command``: dest -> its long flag (for naming them in errors)."""
     for action in parser._actions:
@@ -178,17 +203,49 @@ def _options(parser: argparse.ArgumentParser, command: str) -> dict[str, str]:
 
 
 def _fail(status: int, text: str, debug: bool) -> NoReturn:
-    if debug:
-        traceback.print_exc()
-    sys.stderr.write(f"sampledyn: error: {text}\n")
-    sys.stderr.flush()
+    try:
+        if debug:
+            traceback.print_exc()
+        sys.stderr.write(f"sampledyn: error: {text}\n")
+        sys.stderr.flush()
+    except (OSError, ValueError, AttributeError):
+        pass  # stderr closed: the exit status still tells
     raise SystemExit(status)
+
+
+def _closed_streams() -> None:
+    """A closed stderr (``2>&-``) goes to /dev/null (warnings and errors would raise
+    inside the error handling; the exit status still tells); a closed stdout stays
+    closed, so the first write fails with one line saying so."""
+    if sys.stderr is None or _bad_fd(sys.stderr):
+        sys.stderr = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
+    if sys.stdout is None:
+        sys.stdout = _Closed()
+
+
+def _bad_fd(stream: Any) -> bool:
+    try:
+        os.fstat(stream.fileno())
+    except (OSError, ValueError, AttributeError):
+        return not hasattr(stream, "getvalue")  # a StringIO (tests) has no descriptor
+    return False
+
+
+class _Closed:
+    """Standard output when the command was started without one."""
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.EBADF, "standard output is closed")
+
+    def flush(self) -> None:
+        return None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``sampledyn`` command; returns 0 on success, raises ``SystemExit``
     with the status of the table in ``sampledyn --help`` otherwise."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    _closed_streams()
     debug = "--debug" in argv or os.environ.get(_DEBUG_ENV, "") not in ("", "0")
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -202,7 +259,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.flush()
     stop_notice = compile_notice(args.command, sys.stderr) if announce else None
     try:
-        with _sigterm_as_interrupt(), _one_line_warnings():
+        with _sigterm_as_interrupt(), _one_line_warnings(), _memory(args):
             result = args.func(args)
             sys.stdout.flush()  # a closed pipe shows here, not at exit
     except BrokenPipeError:
@@ -210,7 +267,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit(EXIT_PIPE) from None
     except KeyboardInterrupt as exc:
         kind, status = (
-            ("terminated (SIGTERM)", EXIT_TERMINATED)
+            ("hang-up (SIGHUP)", EXIT_HANGUP)
+            if isinstance(exc, HangUp)
+            else ("terminated (SIGTERM)", EXIT_TERMINATED)
             if isinstance(exc, Terminated)
             else ("interrupted (Ctrl-C)", EXIT_INTERRUPTED)
         )

@@ -19,6 +19,7 @@ __all__ = [
     "EXIT_BAD_VALUE",
     "EXIT_DISK",
     "EXIT_FILE",
+    "EXIT_HANGUP",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
     "EXIT_NUMERICAL",
@@ -29,6 +30,7 @@ __all__ = [
     "EXIT_UNAVAILABLE",
     "ARGUMENT_OPTIONS",
     "EXIT_USAGE",
+    "HangUp",
     "Terminated",
     "classify",
     "status_table",
@@ -42,6 +44,7 @@ EXIT_FILE = 4
 EXIT_DISK = 5
 EXIT_UNAVAILABLE = 6
 EXIT_NUMERICAL = 7
+EXIT_HANGUP = 128 + 1  # 129, SIGHUP
 EXIT_INTERRUPTED = 128 + int(signal.SIGINT)  # 130
 EXIT_PIPE = 128 + 13  # 141, as a Unix tool killed by SIGPIPE
 EXIT_TERMINATED = 128 + int(signal.SIGTERM)  # 143
@@ -56,9 +59,11 @@ EXIT_STATUSES: dict[int, str] = {
     EXIT_FILE: "a file or folder cannot be read or written: missing, not permitted, "
     "read-only, a folder where a file is expected or the reverse",
     EXIT_DISK: "no space left (or an I/O error) while writing; finished results are kept",
-    EXIT_UNAVAILABLE: "a service does not answer (the Dask scheduler)",
+    EXIT_UNAVAILABLE: "a worker or service died or does not answer (a killed worker process, "
+    "the Dask scheduler); finished results are kept",
     EXIT_NUMERICAL: "a numerical method failed on these inputs (Newton did not converge, the "
     "exact integrator missed its tolerance); the message says what to change",
+    EXIT_HANGUP: "hang-up (SIGHUP: the terminal closed); finished results are kept",
     EXIT_INTERRUPTED: "interrupted by Ctrl-C (SIGINT); finished results are kept",
     EXIT_PIPE: "the reader of the output went away (e.g. `| head`); quiet, as Unix tools",
     EXIT_TERMINATED: "terminated (SIGTERM); finished results are kept",
@@ -67,6 +72,10 @@ EXIT_STATUSES: dict[int, str] = {
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C."""
+
+
+class HangUp(Terminated):
+    """SIGHUP (the terminal closed), unwound like SIGTERM."""
 
 
 _DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO}
@@ -94,6 +103,12 @@ def _sqlite_status(exc: Exception) -> int:
     if "readonly" in text or "unable to open" in text or "locked" in text:
         return EXIT_FILE
     return EXIT_BAD_VALUE
+
+
+def _broken_pool(exc: BaseException) -> bool:
+    from concurrent.futures.process import BrokenProcessPool
+
+    return isinstance(exc, BrokenProcessPool)
 
 
 #: Library argument -> the option (its ``dest``) that gives it, where the names differ.
@@ -137,6 +152,16 @@ def classify(exc: BaseException, options: dict[str, str] | None = None) -> tuple
     status: int
     if isinstance(exc, UsageError):
         status, text = EXIT_USAGE, str(exc)
+    elif _broken_pool(exc):
+        status, text = (
+            EXIT_UNAVAILABLE,
+            (
+                "a worker process died (killed by a signal, or out of memory) while computing "
+                "cells; the finished cells are kept: rerun the same command to compute the rest"
+            ),
+        )
+    elif isinstance(exc, OSError) and exc.errno == errno.EBADF and exc.filename is None:
+        status, text = EXIT_FILE, "standard output is closed: the output has nowhere to go"
     elif isinstance(exc, ConnectionError):
         status, text = EXIT_UNAVAILABLE, str(exc)
     elif isinstance(exc, OSError):

@@ -6,7 +6,14 @@ import argparse
 import sys
 from typing import Any
 
-from ._common import option, progress, refuse, writable_dir, writable_file
+from ._common import (
+    option,
+    progress,
+    refuse,
+    refuse_overwriting_inputs,
+    writable_dir,
+    writable_file,
+)
 
 __all__ = ["add_parsers"]
 
@@ -95,11 +102,17 @@ def _cmd_results(args: argparse.Namespace) -> int:
     if args.format == "parquet" and not args.out:
         refuse("`--format parquet` needs `--out FILE`.")
     out = writable_file(args.out, "--out") if args.out else None
+    if out is not None:
+        refuse_overwriting_inputs(out, "--out", _store_files(args.store))
 
     from ..experiments.sweep._store import load_results as load
 
     with option("STORE"):
         df = load(args.store, args.table, kind=args.kind)
+    if args.format == "csv":
+        from .._files import csv_safe_frame
+
+        df = csv_safe_frame(df)  # text a spreadsheet would run as a formula: as text
     if args.format == "parquet":
         try:
             df.to_parquet(out, index=False)
@@ -123,10 +136,22 @@ def _cmd_results(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_report(args: argparse.Namespace) -> int:
-    out = writable_dir(args.out, "--out")
+def _store_files(store: str) -> dict[str, str]:
+    """The files of the store ``store`` (its side files hold committed rows too)."""
+    return {
+        "STORE": store,
+        **{f"STORE's {what}": store + suffix
+           for what, suffix in (("write-ahead log", "-wal"), ("shared memory", "-shm"),
+                                ("journal", "-journal"))},
+    }  # fmt: skip
 
+
+def _cmd_report(args: argparse.Namespace) -> int:
     from ..report import write_report
+    from ..report._sweep_report import REPORT_FILES
+
+    out = writable_dir(args.out, "--out")
+    refuse_overwriting_inputs(out, "--out", _store_files(args.store), writes=REPORT_FILES)
 
     with option("STORE"):
         files = write_report(args.store, out, title=args.title)

@@ -32,7 +32,7 @@ import numpy as np
 from .. import _checks as checks
 from .._noise import noise_amplitudes
 from .._trajectory import Trajectory
-from ..exceptions import NumericalError, SingularPitchError
+from ..exceptions import ArgumentError, NumericalError, SingularPitchError, WorkLimitError
 from ..models import ClosedLoop, Model, Vehicle
 from ..sensitivity import (
     Domain,
@@ -365,9 +365,17 @@ def _checked_arguments(
         state_blocks(model.state_units, "model")
     if rank_by not in RANK_BY:
         raise ValueError(f"`rank_by` must be one of {RANK_BY}, got {rank_by!r}.")
-    checks.period(h)
-    checks.count(seeds, "seeds")
-    checks.count(base_seed, "base_seed", least=0)
+    checks.check_step(checks.period(h))
+    if checks.count(seeds, "seeds") > checks.MAX_SEEDS:
+        raise WorkLimitError(
+            "seeds",
+            f"`seeds` must be an int in 1..{checks.MAX_SEEDS} (10,000 seeds give the mean "
+            f"error to 1 % of its spread), got {seeds!r}.",
+        )
+    if checks.count(base_seed, "base_seed", least=0) > checks.MAX_SEED:
+        raise ArgumentError(
+            "base_seed", f"`base_seed` must be an int <= 2^63 - 1, got {base_seed:.4g}."
+        )
     ms = [supported_method(m, "methods") for m in methods]
     if not ms:
         raise ValueError("`methods` is empty; give at least one rule, e.g. ('E', 'AB4').")

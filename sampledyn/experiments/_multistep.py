@@ -82,6 +82,8 @@ def _rms_norm(err: np.ndarray) -> float:
 
 
 _FREE_RUN = "free run"
+#: Largest horizon K of the multi-step study (see MultistepCells.check_options).
+MAX_HORIZON = 1000
 
 
 def _horizon(measure: str) -> int:
@@ -125,6 +127,13 @@ class MultistepCells(PredictionCells):
         K = options.get("horizon", 20)
         if isinstance(K, bool) or not isinstance(K, int) or K < 1:
             raise SweepConfigError("horizon", f"`horizon` must be an int >= 1, got {K!r}.")
+        if K > MAX_HORIZON:
+            raise SweepConfigError(
+                "horizon",
+                f"`horizon` = {K:.4g} is above {MAX_HORIZON}: every k = 1..K is a cell per "
+                "rule, noise pair and seed, and its k-step rollout costs k steps per sample; "
+                "an MPC horizon is tens of steps.",
+            )
         return {"horizon": K}
 
     def measures(self, config: Any) -> tuple[str, ...]:

@@ -36,6 +36,7 @@ stamp. Time: each message's TimeUS (us since boot, an integer counter). Sampling
 from __future__ import annotations
 
 import difflib
+import re
 import struct
 from pathlib import Path
 from typing import Any
@@ -59,7 +60,49 @@ _INSTANCE = {"XKF1": "C", "NKF1": "C", "XKF4": "C", "NKF4": "C", "IMU": "I", "BA
 _ARMED_EVENTS = {10: 1, 11: 0}  # LogEvent ARMED, DISARMED
 
 
+# DataFlash field type -> bytes (pymavlink's DFReader.FORMAT_TO_STRUCT).
+_FIELD_BYTES = {"a": 64, "b": 1, "B": 1, "g": 2, "h": 2, "H": 2, "i": 4, "I": 4, "f": 4,
+                "n": 4, "N": 16, "Z": 64, "c": 2, "C": 2, "e": 4, "E": 4, "L": 4, "d": 8,
+                "M": 1, "q": 8, "Q": 8}  # fmt: skip
+_FMT_HEAD = b"\xa3\x95\x80"  # a record's two header bytes and the FMT type (128)
+_FMT_LENGTH = 89  # 3 header bytes + Type, Length (uint8), Name[4], Format[16], Columns[64]
+_NAME = re.compile(rb"[A-Z0-9_]{1,4}\x00*")
+
+
+def _check_formats(path: Path, src: str) -> None:
+    """Refuse a DataFlash log whose FMT records declare a message shorter than its
+    header and fields, before pymavlink reads it: pymavlink advances by the declared
+    length, so a length of 0 never ends. Every FMT record is found by its header
+    bytes (a C-speed search of the mapped file); one counts if its name and format
+    read as a FMT's (upper-case name, known field types), so payload bytes that
+    happen to look like a header do not."""
+    import mmap
+
+    with path.open("rb") as fh:
+        if fh.seek(0, 2) < len(_FMT_HEAD):
+            return
+        with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as data:
+            at = data.find(_FMT_HEAD)
+            while 0 <= at and at + _FMT_LENGTH <= len(data):
+                rec = data[at : at + _FMT_LENGTH]
+                kind, length, name = rec[3], rec[4], rec[5:9]
+                fields = rec[9:25].rstrip(b"\x00")
+                if _NAME.fullmatch(name) and fields and all(chr(c) in _FIELD_BYTES for c in fields):
+                    need = 3 + sum(_FIELD_BYTES[chr(c)] for c in fields)
+                    if length < need or (kind == 0x80 and length != _FMT_LENGTH):
+                        label = name.rstrip(b"\x00").decode()
+                        raise LogFormatError(
+                            "data",
+                            f"{src}: the FMT record at byte {at} declares message {label} "
+                            f"(type {kind}) {length} bytes long, but its header and fields "
+                            f"({fields.decode()}) take {need}: a damaged or forged DataFlash "
+                            "log (a reader would loop on it); not read.",
+                        )
+                at = data.find(_FMT_HEAD, at + 1)
+
+
 def _open(path: Path, src: str) -> Any:
+    _check_formats(path, src)
     try:
         from pymavlink import DFReader
     except ImportError as exc:  # pragma: no cover - depends on the installation

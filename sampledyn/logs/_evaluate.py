@@ -387,6 +387,65 @@ def _check_period(
     )
 
 
+# A position or angle whose increments are this far from what the rates give
+# (eta' = the model's f on the logged states; J(eta) nu for a vehicle) is reported.
+# A unit mix-up shows as a factor of 57.3 (deg vs rad) or 3.28 (ft vs m); noise and
+# the rates' lag on a real log keep the fit within a few tens of percent.
+KINEMATIC_FACTOR = 2.0
+_DEG = 180.0 / math.pi
+
+
+def _kinematic_hint(ratio: float, unit: str) -> str:
+    near = abs(math.log(ratio))
+    if unit == "rad" and abs(near - math.log(_DEG)) < math.log(1.5):
+        return (
+            "is the angle column in rad under a [deg] header, or the rate columns in deg/s "
+            "under [rad/s]?" if ratio < 1 else
+            "is the angle column in deg under a [rad] header, or the rate columns in rad/s "
+            "under [deg/s]?"
+        )  # fmt: skip
+    return "check the units of this column and of the rate columns."
+
+
+def _check_kinematics(model: Any, data: LogData) -> None:
+    """Warn where a logged position or angle changes at a rate far from what the
+    logged rates give (the model's f, the kinematics eta' = J(eta) nu of a vehicle),
+    fitted over the log: radians under a [deg] header make every error about ten times
+    larger without any other sign."""
+    tr = data.traj
+    eta = [k for k, u in enumerate(tr.state_units) if NOISE_REFERENCE.get(u, ("",))[0] == "eta"]
+    if not eta or tr.n_samples < 5:
+        return
+    step = max(1, tr.n_samples // 20_000)  # enough samples for a fit, bounded work
+    idx = np.arange(1, tr.n_samples - 1, step)
+    idx = idx[data.valid[idx - 1] & data.valid[idx] & data.valid[idx + 1]]
+    if idx.size < 3:
+        return
+    with np.errstate(all="ignore"):
+        f = np.asarray(model.f(tr.t[idx], tr.x[idx], tr.u[idx]), dtype=float)
+        dt = tr.t[idx + 1] - tr.t[idx - 1]
+        rate = (tr.x[idx + 1] - tr.x[idx - 1]) / dt[:, None]
+    for k in eta:
+        a, b = rate[:, k], f[:, k]
+        ok = np.isfinite(a) & np.isfinite(b)
+        if ok.sum() < 3 or not np.any(b[ok]):
+            continue
+        a, b = a[ok], b[ok]
+        ratio = float(a @ b / (b @ b))
+        corr = float(np.corrcoef(a, b)[0, 1]) if a.std() > 0 and b.std() > 0 else 0.0
+        if corr > 0.8 and not 1 / KINEMATIC_FACTOR <= ratio <= KINEMATIC_FACTOR:
+            name, unit = tr.state_names[k], tr.state_units[k]
+            warnings.warn(
+                f"{data.source}: {name} changes {ratio:.3g} times as fast as the logged rates "
+                f"say it should (least-squares fit of its increments against the model's "
+                f"{name}' on the logged states, correlation {corr:.2f}); "
+                + _kinematic_hint(ratio, unit)
+                + " The errors are meaningless until the units agree.",
+                UserWarning,
+                stacklevel=3,
+            )
+
+
 def _eigenvalues(model: Any, data: LogData) -> np.ndarray | None:
     """The Jacobian's eigenvalues at the valid samples, or None without a Jacobian."""
     try:
@@ -741,6 +800,7 @@ def evaluate_log(
         _warn_inputs_beyond_limits(model, data)
         eig = _eigenvalues(model, data)
         notes += _check_period(model, data, max_h_rate, eig)
+        _check_kinematics(model, data)
         limits = _stability(model, data, rules, eig)
         run = _Run(model, data, norm, after, estimate_log_noise(data, noise_order), {}, [])
         run.limits = {lim.method: lim for lim in limits}

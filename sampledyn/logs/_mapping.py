@@ -4,12 +4,12 @@ section, column or field is an error naming it, never ignored)."""
 from __future__ import annotations
 
 import difflib
-import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..exceptions import LogFormatError
+from .._files import parse_toml, read_text
+from ..exceptions import FileContentError, LogFormatError
 
 if TYPE_CHECKING:  # the command line imports this module before the kernels
     from ..models import Model
@@ -24,12 +24,12 @@ def load_toml(mapping: Any) -> dict[str, Any]:
     if isinstance(mapping, Mapping):
         return dict(mapping)
     path = Path(mapping)
-    if not path.is_file():
+    if not path.exists():
         raise LogFormatError("mapping", f"`mapping`: no file {str(path)!r}.")
-    try:
-        return tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise LogFormatError("mapping", f"`mapping` {str(path)!r}: not TOML: {exc}") from exc
+    try:  # a regular file, bounded, UTF-8, TOML nested a few levels
+        return parse_toml(read_text(path, "mapping file"), f"`mapping` {str(path)!r}")
+    except FileContentError as exc:
+        raise LogFormatError("mapping", str(exc).replace("not valid TOML", "not TOML")) from None
 
 
 def _hint(key: str, allowed: Iterable[str]) -> str:

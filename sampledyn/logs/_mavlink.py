@@ -34,7 +34,6 @@ held (:mod:`._streams`); then :mod:`._autopilot`.
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -42,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from .._files import parse_json
 from ..exceptions import LogFormatError
 from ..models import Model
 from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
@@ -102,7 +102,7 @@ def _blueos_records(path: Path, src: str) -> Iterator[Record]:
     with path.open("rb") as fh:
         for _schema, _channel, message in make_reader(fh).iter_messages(topics=["mavlink/out"]):
             try:
-                data = json.loads(message.data)
+                data = parse_json(message.data, f"{src}: mavlink/out")  # nesting bounded
                 header, msg = data["header"], data["message"]
                 kind = str(msg["type"])
                 sysid, compid = int(header["system_id"]), int(header["component_id"])

@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from .._files import regular_file
 from ..models import Model
 from ._formats import detect_format
 from ._read import TIME_TOLERANCE, LogData
@@ -66,6 +67,8 @@ def read_log(
         naming the column, option or the first bad row.
     FileNotFoundError
         if there is no file at ``path``.
+    OSError
+        (errno EINVAL) for a FIFO, a device or a socket.
     """
     path = Path(path)
     options: dict[str, Any] = {
@@ -76,5 +79,8 @@ def read_log(
         "max_missing": max_missing,
         "irregular": irregular,
     }
+    # A FIFO or a device would block or never end in the format detection or a reader;
+    # a folder is a bag. No size limit: logs are read in chunks.
+    regular_file(path, "log", folder_ok=True)
     fmt = detect_format(path)
     return fmt.read(path, model, mapping=mapping, **options)

@@ -48,7 +48,7 @@ import numpy as np
 from .._trajectory import Trajectory
 from ..exceptions import LogFormatError
 from ._mapping import load_toml, table_mapping
-from ._time import Sampling, check_policy, read_clock, sampling
+from ._time import ClockReader, Sampling, check_policy, sampling
 from ._units import conversion_factor, split_header
 
 if TYPE_CHECKING:  # the command line imports this module before the kernels
@@ -58,6 +58,7 @@ __all__ = [
     "NAN_POLICIES",
     "TIME_TOLERANCE",
     "LogData",
+    "log_from_chunks",
     "log_from_frame",
     "read_table",
     "read_table_log",
@@ -230,19 +231,12 @@ def _count_inputs(model: Model) -> str:
     return f"{who} has {len(names)} input{'s' if len(names) != 1 else ''} ({listed})"
 
 
-def _check_stray_inputs(frame: Any, stray: list[str], model: Model, src: str) -> list[str]:
+def _check_stray_inputs(stray: list[str], zero: list[bool], model: Model, src: str) -> list[str]:
     """Refuse input columns the model has no input for, unless they are 0 throughout
     (thrusters of a bigger vehicle that were off: leaving them out loses nothing);
-    then say so in the notes."""
+    then say so in the notes. ``zero[i]``: column ``stray[i]`` holds numbers, all 0."""
     if not stray:
         return []
-    zero = []
-    for col in stray:
-        try:
-            values = np.asarray(frame[col], dtype=float)
-        except (TypeError, ValueError):
-            values = np.array([np.nan])
-        zero.append(bool(np.all(values[np.isfinite(values)] == 0.0) and np.isfinite(values).any()))
     names = ", ".join(repr(c) for c in stray)
     if all(zero):
         return [f"column(s) {names} are 0 throughout; {_count_inputs(model)}: left out"]
@@ -255,46 +249,40 @@ def _check_stray_inputs(frame: Any, stray: list[str], model: Model, src: str) ->
     )
 
 
-def _fill(values: np.ndarray, t: np.ndarray) -> np.ndarray:
-    out = values.copy()
-    for j in range(out.shape[1]):
-        ok = np.isfinite(out[:, j])
+def _fill(values: np.ndarray, t: np.ndarray) -> None:
+    """Interpolate the non-finite entries of ``values`` (N, k) linearly in ``t``, in
+    place (no copy of a large log)."""
+    for j in range(values.shape[1]):
+        ok = np.isfinite(values[:, j])
         if not ok.all():
-            out[:, j] = np.interp(t, t[ok], out[ok, j])
-    return out
+            values[:, j] = np.interp(t, t[ok], values[ok, j])
 
 
-def _nan_policy(
-    data: np.ndarray, cols: list[str], nan: str, src: str, csv: bool
-) -> tuple[slice, np.ndarray, list[str]]:
-    """Rows to keep (a slice), validity per kept row, notes."""
-    finite = np.isfinite(data)
-    if finite.all():
-        return slice(0, data.shape[0]), np.ones(data.shape[0], bool), []
-    rows_bad = ~finite.all(axis=1)
-    i = int(np.argmax(rows_bad))
-    j = int(np.argmax(~finite[i]))
+def _nan_policy(blocks: _Blocks, nan: str, src: str, csv: bool) -> tuple[np.ndarray, list[str]]:
+    """Validity per kept row (rows ``blocks.start`` .. ``blocks.stop``), notes; raises
+    under ``nan="error"`` at the first NaN, and for a column without any number."""
+    if blocks.first_bad is None:
+        return np.ones(blocks.stop - blocks.start, bool), []
+    i, col = blocks.first_bad
     if nan == "error":
         raise LogFormatError(
-            cols[j],
-            f"{src}: column {cols[j]!r} is NaN at {_row(i, csv)} ({int(rows_bad.sum())} rows "
+            col,
+            f"{src}: column {col!r} is NaN at {_row(i, csv)} ({blocks.n_bad} rows "
             "with NaN). Choose a policy: `nan`='drop' or 'interpolate' (--nan).",
         )
-    for jj in range(data.shape[1]):
-        if not finite[:, jj].any():
-            raise LogFormatError(cols[jj], f"{src}: column {cols[jj]!r} holds no number.")
-    good = np.flatnonzero(~rows_bad)
-    keep = slice(int(good[0]), int(good[-1]) + 1)
+    for col, some in blocks.any_finite.items():
+        if not some:
+            raise LogFormatError(col, f"{src}: column {col!r} holds no number.")
     notes = []
-    trimmed = data.shape[0] - (keep.stop - keep.start)
+    trimmed = blocks.rows - (blocks.stop - blocks.start)
     if trimmed:
         notes.append(f"{trimmed} rows with NaN at the ends of the log trimmed")
-    inner = rows_bad[keep]
+    inner = blocks.bad[: blocks.stop - blocks.start]
     if nan == "interpolate":
         notes.append(f"{int(inner.sum())} rows with NaN interpolated linearly in time")
-        return keep, np.ones(keep.stop - keep.start, bool), notes
+        return np.ones(inner.size, bool), notes
     notes.append(f"{int(inner.sum())} rows with NaN dropped from the error norms")
-    return keep, ~inner, notes
+    return ~inner, notes
 
 
 def _check_angles(
@@ -333,6 +321,181 @@ def _unwrap_angles(data: np.ndarray, model: Model) -> list[str]:
     return notes
 
 
+# Rows per chunk of a table read from a file: a chunk's text and temporaries stay in the
+# tens of MB whatever the length of the log.
+CHUNK_ROWS = 1 << 16
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where the model's quantities are in a log's columns, and their conversions."""
+
+    columns: tuple[str, ...]  # every column of the log, as named
+    cols: dict[str, tuple[str, str | None]]  # quantity -> (column, unit)
+    stray: tuple[str, ...]  # input-like columns the model has no input for
+    names: tuple[str, ...]  # states, then inputs (canonical names)
+    factors: dict[str, float]  # quantity -> factor to the model's unit
+    targets: dict[str, str]  # quantity -> the model's unit
+
+    @property
+    def needed(self) -> list[str]:
+        """The columns read: time, states, inputs, stray inputs (others skipped)."""
+        return list(dict.fromkeys([self.cols["t"][0], *(self.cols[n][0] for n in self.names),
+                                   *self.stray]))  # fmt: skip
+
+
+def _layout(columns: list[Any], model: Any, mapping: Any, source: str) -> _Layout:
+    cols, stray = _columns(columns, model, mapping, source)
+    _states, inputs = _aliases(model)
+    targets = dict(zip(model.state_names, model.state_units, strict=True))
+    targets |= {a[0]: u for a, u in zip(inputs, model.input_units, strict=True)}
+    factors = {}
+    for n, target in targets.items():
+        try:
+            factors[n] = conversion_factor(cols[n][0], n, str(cols[n][1]), target)
+        except LogFormatError as exc:
+            raise LogFormatError(exc.argument, f"{source}: {exc}") from None
+    names = (*model.state_names, *(a[0] for a in inputs))
+    return _Layout(tuple(str(c) for c in columns), cols, tuple(stray), names, factors, targets)
+
+
+@dataclass
+class _Blocks:
+    """A log's numbers gathered chunk by chunk (:class:`_Gatherer`): states and inputs in
+    the model's units, rows ``start`` .. ``stop`` (the ends without NaN rows trimmed),
+    the time column read, and what the NaN and stray-input checks need."""
+
+    x: np.ndarray
+    u: np.ndarray
+    clock: Any
+    rows: int
+    start: int
+    stop: int
+    bad: np.ndarray  # per kept row: holds a NaN
+    n_bad: int
+    first_bad: tuple[int, str] | None
+    any_finite: dict[str, bool]
+    stray_zero: list[bool]
+
+
+def _numbers(chunk: Any, col: str, source: str) -> np.ndarray:
+    try:
+        return np.asarray(chunk[col], dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise LogFormatError(col, f"{source}: column {col!r} is not numeric: {exc}") from exc
+
+
+class _Gatherer:
+    """One pass over a log's chunks (DataFrames of its rows, in order) into a
+    :class:`_Blocks`; memory: the arrays kept plus one chunk."""
+
+    def __init__(self, layout: _Layout, model: Any, capacity: int, source: str):
+        self.layout, self.source = layout, source
+        self.reader: Any = None  # the ClockReader of the time column
+        self.nx = int(model.nx)
+        self.data_cols = [layout.cols[n][0] for n in layout.names]
+        width = len(layout.names)
+        self.x = np.empty((capacity, self.nx))
+        self.u = np.empty((capacity, width - self.nx))
+        self.bad = np.zeros(capacity, dtype=bool)
+        self.rows = 0  # rows seen
+        self.start: int | None = None  # first row without NaN
+        self.stop = 0  # one past the last row without NaN
+        self.filled = 0  # rows stored from `start` on
+        self.n_bad = 0
+        self.first_bad: tuple[int, str] | None = None
+        self.any_finite = dict.fromkeys(self.data_cols, False)
+        self.stray_zero = {c: [True, False] for c in layout.stray}  # (all 0, some finite)
+        self.pending: list[Any] = []  # time stamps after the last good row (maybe trimmed)
+
+    def add(self, chunk: Any) -> None:
+        n = len(chunk)
+        block = np.empty((n, len(self.data_cols)))
+        for j, (name, col) in enumerate(zip(self.layout.names, self.data_cols, strict=True)):
+            block[:, j] = _numbers(chunk, col, self.source)
+            factor = self.layout.factors[name]
+            if factor != 1.0:
+                block[:, j] *= factor
+        finite = np.isfinite(block)
+        row_bad = np.asarray(~finite.all(axis=1))
+        for j, col in enumerate(self.data_cols):
+            self.any_finite[col] = self.any_finite[col] or bool(finite[:, j].any())
+        for col in self.layout.stray:
+            self._stray(chunk, col)
+        if row_bad.any():
+            if self.first_bad is None:
+                i = int(np.argmax(row_bad))
+                self.first_bad = (self.rows + i, self.data_cols[int(np.argmax(~finite[i]))])
+            self.n_bad += int(row_bad.sum())
+        good = np.flatnonzero(~row_bad)
+        skip = 0
+        if self.start is None:
+            if not good.size:
+                self.rows += n
+                return
+            skip = int(good[0])
+            self.start = self.rows + skip
+        k = n - skip
+        self._grow(self.filled + k)
+        self.x[self.filled : self.filled + k] = block[skip:, : self.nx]
+        self.u[self.filled : self.filled + k] = block[skip:, self.nx :]
+        self.bad[self.filled : self.filled + k] = row_bad[skip:]
+        self.filled += k
+        times = chunk[self.layout.cols["t"][0]]
+        times = times.iloc[skip:] if hasattr(times, "iloc") else times[skip:]
+        if good.size:
+            last = int(good[-1]) - skip  # in `times`
+            self.stop = self.rows + skip + last + 1
+            for part in self.pending:
+                self.reader.add(part)
+            self.pending = []
+            head = times.iloc[: last + 1] if hasattr(times, "iloc") else times[: last + 1]
+            self.reader.add(head)
+            times = times.iloc[last + 1 :] if hasattr(times, "iloc") else times[last + 1 :]
+        if len(times):
+            self.pending.append(times)
+        self.rows += n
+
+    def _stray(self, chunk: Any, col: str) -> None:
+        flags = self.stray_zero[col]
+        try:
+            values = np.asarray(chunk[col], dtype=float)
+        except (TypeError, ValueError):
+            flags[0] = False  # text: not an input that was off
+            return
+        ok = np.isfinite(values)
+        flags[0] = flags[0] and bool(np.all(values[ok] == 0.0))
+        flags[1] = flags[1] or bool(ok.any())
+
+    def _grow(self, need: int) -> None:
+        """More rows than the file's line count promised (never for a CSV): double."""
+        if need <= self.x.shape[0]:
+            return
+        size = max(need, 2 * self.x.shape[0])
+        self.x = np.concatenate([self.x, np.empty((size - self.x.shape[0], self.x.shape[1]))])
+        self.u = np.concatenate([self.u, np.empty((size - self.u.shape[0], self.u.shape[1]))])
+        self.bad = np.concatenate([self.bad, np.zeros(size - self.bad.size, dtype=bool)])
+
+    def blocks(self) -> _Blocks:
+        start = self.rows if self.start is None else self.start
+        kept = max(0, self.stop - start)
+        x, u = _shrink(self.x, kept), _shrink(self.u, kept)
+        stray_zero = [a and b for a, b in (self.stray_zero[c] for c in self.layout.stray)]
+        return _Blocks(x, u, self.reader, self.rows, start, start + kept, self.bad[:kept],
+                       self.n_bad, self.first_bad, self.any_finite, stray_zero)  # fmt: skip
+
+
+def _shrink(a: np.ndarray, rows: int) -> np.ndarray:
+    """The first ``rows`` rows of ``a``, resized in place where ``a`` owns its memory
+    (no second copy of a large log)."""
+    if rows == a.shape[0]:
+        return a
+    if a.base is None and a.flags.c_contiguous:
+        a.resize((rows, *a.shape[1:]), refcheck=False)
+        return a
+    return np.ascontiguousarray(a[:rows])
+
+
 def log_from_frame(
     frame: Any,
     model: Model,
@@ -356,44 +519,63 @@ def log_from_frame(
     turned into this frame); ``unmeasured`` and ``warnings`` go to the LogData as
     they are. Other parameters: :func:`read_log`.
     """
+    return log_from_chunks(
+        [frame], len(frame), list(frame.columns), model, source=source, mapping=mapping,
+        nan=nan, time_tolerance=time_tolerance, unwrap=unwrap, csv=csv, gaps=gaps,
+        max_missing=max_missing, notes=notes, irregular=irregular, unmeasured=unmeasured,
+        warnings=warnings,
+    )  # fmt: skip
+
+
+def log_from_chunks(
+    chunks: Any,
+    capacity: int,
+    columns: list[Any],
+    model: Any,
+    *,
+    source: str = "<frame>",
+    mapping: Any = None,
+    nan: str = "error",
+    time_tolerance: float = TIME_TOLERANCE,
+    unwrap: bool = True,
+    csv: bool = False,
+    gaps: str = "refuse",
+    max_missing: int = 1,
+    notes: tuple[str, ...] = (),
+    irregular: bool = False,
+    unmeasured: tuple[str, ...] = (),
+    warnings: tuple[str, ...] = (),
+) -> LogData:
+    """:func:`log_from_frame` for a log given as consecutive DataFrames (``chunks``,
+    each with the ``columns`` of the log, or only those the model uses), about
+    ``capacity`` rows in all (an upper bound saves a copy). Memory: the arrays of the
+    returned LogData and one chunk."""
     if nan not in NAN_POLICIES:
         raise LogFormatError("nan", f"`nan` must be one of {', '.join(NAN_POLICIES)}, got {nan!r}.")
     check_policy(gaps, max_missing, time_tolerance)
-    if len(frame) == 0:
+    layout = _layout(columns, model, mapping, source)
+    tcol, tunit = layout.cols["t"]
+    gatherer = _Gatherer(layout, model, capacity, source)
+    # Stamps are read from the first row without NaN on (the rows before are trimmed).
+    gatherer.reader = ClockReader(tunit, tcol, source,
+                                  lambda i: _row((gatherer.start or 0) + i, csv))  # fmt: skip
+    for chunk in chunks:
+        gatherer.add(chunk)
+    blocks = gatherer.blocks()
+    reader = gatherer.reader
+    if blocks.rows == 0:
         raise LogFormatError(
             "data",
             f"{source}: the log has no data rows (a header only); it needs at least 3 "
             "samples, one per row.",
         )
-    cols, stray = _columns(list(frame.columns), model, mapping, source)
-    stray_notes = _check_stray_inputs(frame, stray, model, source)
-    states, inputs = _aliases(model)
-    targets = dict(zip(model.state_names, model.state_units, strict=True))
-    targets |= {a[0]: u for a, u in zip(inputs, model.input_units, strict=True)}
-    factors = {}
-    for n, target in targets.items():
-        try:
-            factors[n] = conversion_factor(cols[n][0], n, str(cols[n][1]), target)
-        except LogFormatError as exc:
-            raise LogFormatError(exc.argument, f"{source}: {exc}") from None
-
-    def numbers(name: str) -> np.ndarray:
-        col = cols[name][0]
-        try:
-            return np.asarray(frame[col], dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise LogFormatError(col, f"{source}: column {col!r} is not numeric: {exc}") from exc
-
-    names = [*model.state_names, *(a[0] for a in inputs)]
-    data = np.column_stack([numbers(n) * factors[n] for n in names])
-    keep, valid, nan_notes = _nan_policy(data, [cols[n][0] for n in names], nan, source, csv)
-    data = data[keep]
+    stray_notes = _check_stray_inputs(list(layout.stray), blocks.stray_zero, model, source)
+    valid, nan_notes = _nan_policy(blocks, nan, source, csv)
 
     def row(i: int) -> str:
-        return _row(keep.start + i, csv)
+        return _row(blocks.start + i, csv)
 
-    tcol, tunit = cols["t"]
-    clock = read_clock(frame[tcol].iloc[keep], tunit, tcol, source, row)
+    clock = reader.clock()
     smp = sampling(
         clock,
         tolerance=time_tolerance,
@@ -404,27 +586,30 @@ def log_from_frame(
         irregular=irregular,
     )
     t = smp.t
-    nx = model.nx
-    _check_angles(data[:, :nx], model, cols, source)
+    x, u = blocks.x, blocks.u
+    cols = layout.cols
+    _check_angles(x, model, cols, source)
     out_notes = [*notes, *smp.notes, *nan_notes, *stray_notes]
-    converted = [
-        f"{cols[n][0]} ({cols[n][1]} -> {targets[n]})" for n in targets if factors[n] != 1.0
-    ]
+    converted = [f"{cols[n][0]} ({cols[n][1]} -> {layout.targets[n]})"
+                 for n in layout.targets if layout.factors[n] != 1.0]  # fmt: skip
     if converted:
         out_notes.append("converted " + ", ".join(converted))
-    used = {str(cols[n][0]) for n in (*names, "t")} | {str(c) for c in stray}
-    unused = [str(c) for c in frame.columns if str(c) not in used]
+    used = {str(cols[n][0]) for n in (*layout.names, "t")} | set(layout.stray)
+    unused = [c for c in layout.columns if c not in used]
     if unused:
         more = f" and {len(unused) - 8} more" if len(unused) > 8 else ""
         out_notes.append(f"columns not used by the model: {', '.join(unused[:8])}{more}")
     if unwrap:  # before any filling, so that no interpolation spans a wrap-around
-        out_notes += _unwrap_angles(data, model)
-    if not np.isfinite(data).all():
-        data = _fill(data, t)
+        out_notes += _unwrap_angles(x, model)
+    if blocks.n_bad:
+        _fill(x, t)
+        _fill(u, t)
+    for a in (x, u):
+        a.setflags(write=False)  # owned, read-only: the Trajectory takes them as they are
     traj = Trajectory(
         t=t,
-        x=data[:, :nx],
-        u=data[:, nx:],
+        x=x,
+        u=u,
         h=smp.h,
         state_names=tuple(model.state_names),
         state_units=tuple(model.state_units),
@@ -432,7 +617,7 @@ def log_from_frame(
         input_units=tuple(model.input_units),
         origin=clock.origin,
     )
-    rows = np.arange(keep.start, keep.stop)
+    rows = np.arange(blocks.start, blocks.stop)
     return LogData(
         traj,
         valid,
@@ -487,7 +672,50 @@ def read_table(path: Path, model: Model, mapping: Any) -> tuple[Any, bool]:
         raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
 
 
+def _count_rows(path: Path) -> int:
+    """Lines of a text file (an upper bound of its data rows plus the header), in
+    blocks of 16 MiB."""
+    lines = 0
+    with path.open("rb") as fh:
+        while block := fh.read(16 << 20):
+            lines += block.count(b"\n")
+    return lines + 1
+
+
+def _table_chunks(path: Path, model: Model, mapping: Any) -> tuple[Any, int, list[Any], bool]:
+    """(chunks of the columns the model uses, a bound of the rows, every column, csv)
+    of a CSV or Parquet file, read lazily: a CSV's time column as text, so that
+    decimal stamps (1700000000.123456789) are read exactly."""
+    import pandas as pd
+
+    if path.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        pf = pq.ParquetFile(path)
+        columns = list(pf.schema_arrow.names)
+        needed = _layout(columns, model, mapping, path.name).needed
+        batches = pf.iter_batches(batch_size=CHUNK_ROWS, columns=needed)
+        return (b.to_pandas() for b in batches), int(pf.metadata.num_rows), columns, False
+    columns = list(pd.read_csv(path, skipinitialspace=True, nrows=0).columns)
+    _refuse_repeated_columns(path)
+    layout = _layout(columns, model, mapping, path.name)
+    tcol = layout.cols["t"][0]
+    chunks = pd.read_csv(path, skipinitialspace=True, usecols=layout.needed, dtype={tcol: str},
+                         chunksize=CHUNK_ROWS)  # fmt: skip
+    return chunks, _count_rows(path), columns, True
+
+
 def read_table_log(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
-    """A CSV or Parquet log (the reader of the "csv" and "parquet" formats)."""
-    frame, csv = read_table(path, model, mapping)
-    return log_from_frame(frame, model, source=path.name, mapping=mapping, csv=csv, **options)
+    """A CSV or Parquet log (the reader of the "csv" and "parquet" formats), read in
+    chunks of :data:`CHUNK_ROWS` rows: memory about the arrays returned (10 million
+    rows of 21 columns: benchmarks/bench_log_memory.py)."""
+    import pandas as pd
+
+    try:
+        chunks, capacity, columns, csv = _table_chunks(path, model, mapping)
+        return log_from_chunks(chunks, capacity, columns, model, source=path.name,
+                               mapping=mapping, csv=csv, **options)  # fmt: skip
+    except (ValueError, OSError, pd.errors.ParserError) as exc:
+        if isinstance(exc, LogFormatError):
+            raise
+        raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc

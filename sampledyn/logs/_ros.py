@@ -63,6 +63,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from .._files import read_text, regular_file
 from ..exceptions import LogFormatError
 from ..models import Model, Vehicle
 from ._ardupilot import FRAMES, RC_AXES, manual_mixer, motor_signs
@@ -118,14 +119,18 @@ class _Config:
 
 
 def _field(msg: Any, path: str, topic: str) -> Any:
+    """The field ``path`` ("twist.linear.x") of a message: message fields only (the
+    dataclass fields rosbags declares), never other Python attributes (a mapping that
+    names ``__class__.__mro__`` is refused like any unknown field)."""
     obj = msg
     for part in path.split("."):
-        if not hasattr(obj, part):
-            have = [f for f in getattr(type(obj), "__dataclass_fields__", {}) if f != "__msgtype__"]
+        fields = getattr(type(obj), "__dataclass_fields__", {})
+        if part not in fields or part.startswith("__"):
+            have = [f for f in fields if not f.startswith("__")]
             raise LogFormatError(
                 "mapping",
                 f"mapping file: messages on {topic!r} ({getattr(msg, '__msgtype__', '?')}) have no "
-                f"field {path!r}: {part!r} is not among {', '.join(have)}.",
+                f"field {path!r}: {part!r} is not among {', '.join(have) or 'no fields'}.",
             )
         obj = getattr(obj, part)
     return obj
@@ -191,6 +196,18 @@ def _config(model: Model, mapping: Any, src: str) -> _Config:
     )
 
 
+def _regular_bag(path: Path) -> None:
+    """A bag's files must be regular files (a FIFO or /dev/zero as metadata.yaml would
+    block or fill the memory in the YAML reader); metadata.yaml is bounded in size."""
+    if path.is_dir():
+        regular_file(path / "metadata.yaml", "bag metadata")
+        for part in path.iterdir():
+            if part.suffix.lower() in (".db3", ".mcap"):
+                regular_file(part, "bag file", limit=None)
+    else:
+        regular_file(path, "bag file", limit=None)
+
+
 def _open(path: Path) -> tuple[Any, str]:
     try:
         from rosbags.highlevel import AnyReader
@@ -213,6 +230,7 @@ def _open(path: Path) -> tuple[Any, str]:
                 f".mcap file, it holds {len(files)}; name the file.",
             )
         path = files[0]
+    _regular_bag(path)
     ros1 = path.suffix.lower() == ".bag"
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     return AnyReader([path], default_typestore=store), ("ROS 1" if ros1 else "ROS 2")
@@ -235,7 +253,7 @@ def _register_types(reader: Any, extra: Mapping[str, Any], src: str) -> None:
             raise LogFormatError(
                 "mapping", f"mapping file: [ros.types] {name!r}: no .msg file {str(msg)!r}."
             )
-        add.update(get_types_from_msg(msg.read_text(), str(name)))
+        add.update(get_types_from_msg(read_text(msg, "message definition"), str(name)))
     reader.typestore.register({k: v for k, v in add.items() if k not in have})
 
 

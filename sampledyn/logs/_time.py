@@ -44,7 +44,15 @@ import numpy as np
 from .. import _checks as checks
 from ..exceptions import LogFormatError
 
-__all__ = ["CLOCK_UNITS", "GAP_POLICIES", "TIME_UNITS", "Clock", "Sampling", "read_clock"]
+__all__ = [
+    "CLOCK_UNITS",
+    "GAP_POLICIES",
+    "TIME_UNITS",
+    "Clock",
+    "ClockReader",
+    "Sampling",
+    "read_clock",
+]
 
 # unit -> (multiplier, divisor) taking the unit to seconds exactly in integer steps
 TIME_UNITS: dict[str, tuple[int, int]] = {
@@ -111,39 +119,37 @@ def _check_increasing(t: np.ndarray, column: str, src: str, row: Callable[[int],
         )
 
 
-def _datetimes(values: Any, column: str, src: str, row: Callable[[int], str]) -> Clock:
+def _datetime_ns(
+    values: Any, column: str, src: str, row: Callable[[int], str], at: int
+) -> tuple[np.ndarray, bool, str]:
+    """(int64 ns since the epoch (UTC if zoned), zoned, the dtype's unit) of date-times."""
     import pandas as pd
 
     s = pd.Series(values)
     if s.isna().any():
-        raise LogFormatError("t", f"{src}: t is missing (NaT) at {row(int(np.argmax(s.isna())))}.")
+        i = at + int(np.argmax(s.isna().to_numpy()))
+        raise LogFormatError("t", f"{src}: t is missing (NaT) at {row(i)}.")
     aware = getattr(s.dtype, "tz", None) is not None
     naive = s.dt.tz_convert("UTC").dt.tz_localize(None) if aware else s
     ns = np.asarray(naive, dtype="datetime64[ns]").view(np.int64)
     unit = np.datetime_data(np.asarray(naive).dtype)[0] if not aware else "ns"
-    first = pd.Timestamp(naive.iloc[0]).isoformat()
-    origin = f"{first}+00:00" if aware else f"{first} (no time zone)"
-    clock = Clock(
-        _from_ticks(ns, 1e9, 1),
-        origin,
-        {"s": 1.0, "ms": 1e-3, "us": 1e-6}.get(str(unit), 1e-9),
-        "date-times" + (" (UTC)" if aware else ""),
-    )
-    _check_increasing(clock.offsets, column, src, row)
-    return clock
+    return ns, aware, str(unit)
 
 
-def _iso(text: Any, column: str, src: str, row: Callable[[int], str]) -> Clock:
+def _iso_ns(
+    text: Any, column: str, src: str, row: Callable[[int], str], at: int
+) -> tuple[np.ndarray, bool, int]:
+    """(int64 ns, zoned, digits of the fraction) of one chunk of ISO-8601 text."""
     import pandas as pd
 
-    s = pd.Series(text, dtype=object).astype(str).str.strip()
+    s = pd.Series(np.asarray(text, dtype=object)).astype(str).str.strip()
     zoned = s.str.contains(_ZONE)
     if zoned.any() and not zoned.all():
         i = int(np.argmax(~zoned if zoned.iloc[0] else zoned))
         raise LogFormatError(
             "t",
             f"{src}: column {column!r} mixes ISO-8601 times with and without a time zone "
-            f"(first change at {row(i)}: {s.iloc[i]!r}); give every stamp a zone.",
+            f"(first change at {row(at + i)}: {s.iloc[i]!r}); give every stamp a zone.",
         )
     try:
         stamps = pd.to_datetime(s, format="ISO8601", utc=bool(zoned.all()))
@@ -153,47 +159,301 @@ def _iso(text: Any, column: str, src: str, row: Callable[[int], str]) -> Clock:
         raise LogFormatError(
             "t",
             f"{src}: column {column!r} is neither numbers nor ISO-8601 date-times "
-            f"({row(i)}: {s.iloc[i]!r}): {exc}",
+            f"({row(at + i)}: {s.iloc[i]!r}): {exc}",
         ) from None
     fraction = s.str.extract(r"T?\d\d:\d\d:\d\d\.(\d+)", expand=False).str.len()
     digits = int(min(9, fraction.max())) if fraction.notna().any() else 0
-    clock = _datetimes(stamps, column, src, row)
-    kind = "ISO-8601 text" + (", converted to UTC" if zoned.all() else ", no time zone")
-    return Clock(clock.offsets, clock.origin, 10.0**-digits, kind)
+    ns, _aware, _unit = _datetime_ns(stamps, column, src, row, at)
+    return ns, bool(zoned.all()), digits
 
 
-def _decimal_text(
-    text: Any, unit: str, column: str, src: str, row: Callable[[int], str]
-) -> Clock | None:
-    """Exact read of decimal numbers written as text; None if some are not plain
-    decimals (e.g. '1.7e9'), or too long to be exact in 64-bit integers."""
-    s = np.asarray(text, dtype=object).astype(str)
-    parts = [_DECIMAL.match(v) for v in s]
-    if not all(p is not None and (p.group(2) or p.group(3)) for p in parts):
+def _decimal_ticks(text: Any) -> tuple[np.ndarray, int] | None:
+    """(integer ticks of 10^-digits, digits) of decimal numbers written as text
+    (``[+-]digits[.digits]``, blanks around allowed); None if some are not plain
+    decimals (e.g. '1.7e9') or too long to be exact in 64-bit integers (2^62).
+    Vectorised: one chunk of a log of any length at numpy's speed."""
+    s = np.char.strip(np.asarray(text, dtype=str))
+    if s.size == 0:
+        return np.zeros(0, dtype=np.int64), 0
+    lead = np.char.lstrip(s, "+-")
+    negative = np.char.startswith(s, "-")
+    if (np.char.str_len(s) - np.char.str_len(lead) > 1).any():
         return None
-    sign = np.array([-1 if p.group(1) == "-" else 1 for p in parts], dtype=np.int64)  # type: ignore[union-attr]
-    whole = [p.group(2) or "0" for p in parts]  # type: ignore[union-attr]
-    frac = [p.group(3) or "" for p in parts]  # type: ignore[union-attr]
-    digits = max(len(f) for f in frac)
-    values = [int(w + f.ljust(digits, "0")) for w, f in zip(whole, frac, strict=True)]
-    if max(values) >= 2**62:  # not exact in 64-bit integers: read as float instead
+    split = np.char.partition(lead, ".")
+    whole, frac = split[:, 0], split[:, 2]
+    plain = (np.char.isdecimal(whole) | (whole == "")) & (np.char.isdecimal(frac) | (frac == ""))
+    plain &= (whole != "") | (frac != "")
+    if not plain.all():
         return None
-    ticks = sign * np.array(values, dtype=np.int64)
-    mult, div = TIME_UNITS[unit]
-    offsets = _from_ticks(ticks, 10.0**digits * div, mult)
-    first = s[0].strip()
-    origin = f"{first} {unit}" + _unix(float(first) * mult / div)
-    clock = Clock(
-        offsets, origin, 10.0**-digits * mult / div, f"decimal text in {unit} (read exactly)"
-    )
-    _check_increasing(clock.offsets, column, src, row)
-    return clock
+    digits = int(np.char.str_len(frac).max())
+    joined = np.char.add(whole, np.char.ljust(frac, digits, "0"))
+    if (np.char.str_len(joined) > 19).any():
+        return None
+    try:
+        values = np.char.add("0", joined).astype(np.int64)  # "0" for an empty whole part
+    except (OverflowError, ValueError):
+        return None
+    if int(values.max()) >= 2**62:
+        return None
+    return np.where(negative, -values, values), digits
+
+
+def _is_text(dtype: Any) -> bool:
+    return dtype.kind == "O" or str(dtype).startswith(("string", "str"))
+
+
+class ClockReader:
+    """Reads a time column (see the module docstring) chunk by chunk: a log of any
+    length in the memory of its offsets (8 bytes a row) and one chunk.
+
+    Parameters
+    ----------
+    unit : str or None
+        The column's unit from the header or mapping file.
+    column, src : str
+        Column and file names for messages.
+    row : callable
+        Row index (0-based, over all chunks) -> how the user sees that row.
+
+    Chunks given to :meth:`add` must be of one kind (all text, all numbers, all
+    date-times); :meth:`clock` reads them as one column.
+    """
+
+    def __init__(self, unit: str | None, column: str, src: str, row: Callable[[int], str]):
+        if unit is not None and unit not in TIME_UNITS and unit not in CLOCK_UNITS:
+            raise LogFormatError(
+                column,
+                f"{src}: column {column!r}: unknown time unit {unit!r}; accepted: "
+                f"{', '.join(TIME_UNITS)} for numbers, 'datetime' for date-times.",
+            )
+        self.unit, self.column, self.src, self.row = unit, column, src, row
+        self.mode: str | None = None
+        self.count = 0
+        self.first = ""
+        self.parts: list[Any] = []
+        self.floats: list[np.ndarray] | None = []  # text read as numbers, or None
+        self.float_error: Exception | None = None
+        self.exact = True  # every text chunk a plain decimal
+        self.flags: dict[str, Any] = {}
+
+    def _mode_of(self, dtype: Any) -> str:
+        import pandas as pd
+
+        column, src, unit = self.column, self.src, self.unit
+        if pd.api.types.is_datetime64_any_dtype(dtype):
+            if unit in TIME_UNITS:
+                raise LogFormatError(
+                    column,
+                    f"{src}: column {column!r} holds date-times ({dtype}), not numbers in "
+                    f"{unit!r}: drop the unit or give unit = 'datetime'.",
+                )
+            return "datetime"
+        if unit in CLOCK_UNITS or (unit is None and _is_text(dtype)):
+            if _is_text(dtype):
+                return "iso"
+            raise LogFormatError(
+                column,
+                f"{src}: column {column!r} holds numbers ({dtype}), not date-times: give its "
+                f"unit ({', '.join(TIME_UNITS)}).",
+            )
+        if unit is None:
+            raise LogFormatError(
+                column,
+                f"{src}: column {column!r} (t) has no unit; write it as 't[s]' (or ms, us, "
+                "ns) in the header or give it in a mapping file.",
+            )
+        if _is_text(dtype):
+            return "text"
+        return "int" if dtype.kind in "iu" else "float"
+
+    def add(self, values: Any) -> None:
+        """Read one chunk (array-like or pandas Series, shape (n,))."""
+        dtype = getattr(values, "dtype", None)
+        if dtype is None:
+            values = np.asarray(values)
+            dtype = values.dtype
+        mode = self._mode_of(dtype)
+        if self.mode is None:
+            self.mode = mode
+        elif mode != self.mode:
+            raise LogFormatError(
+                self.column,
+                f"{self.src}: column {self.column!r} changes what it holds at "
+                f"{self.row(self.count)} ({self.mode} before, {mode} there).",
+            )
+        n = len(values)
+        if n == 0:
+            return
+        if not self.first:
+            first = values.iloc[0] if hasattr(values, "iloc") else values[0]
+            self.first = str(first).strip()
+        getattr(self, f"_add_{mode}")(values)
+        self.count += n
+
+    def _add_datetime(self, values: Any) -> None:
+        import pandas as pd
+
+        ns, aware, unit = _datetime_ns(values, self.column, self.src, self.row, self.count)
+        if not self.parts:
+            self.flags.update(aware=aware, unit=unit,
+                              first=pd.Timestamp(pd.Series(values).iloc[0]))  # fmt: skip
+        self.parts.append(ns)
+
+    def _add_iso(self, values: Any) -> None:
+        ns, zoned, digits = _iso_ns(values, self.column, self.src, self.row, self.count)
+        if self.parts and zoned != self.flags["zoned"]:
+            raise LogFormatError(
+                "t",
+                f"{self.src}: column {self.column!r} mixes ISO-8601 times with and without a "
+                f"time zone (first change at or after {self.row(self.count)}); give every "
+                "stamp a zone.",
+            )
+        self.flags["zoned"] = zoned
+        self.flags["digits"] = max(digits, self.flags.get("digits", 0))
+        self.parts.append(ns)
+
+    def _add_text(self, values: Any) -> None:
+        ticks = _decimal_ticks(values) if self.exact else None
+        if ticks is None:
+            self.exact = False
+        else:
+            self.parts.append(ticks)
+        if self.floats is not None:
+            try:
+                self.floats.append(np.asarray(values, dtype=float))
+            except (TypeError, ValueError) as exc:
+                self.floats, self.float_error = None, exc
+                self.flags["text"] = values  # for the hint (does it look like ISO?)
+        if not self.exact and self.floats is None:
+            self._not_numeric()
+
+    def _not_numeric(self) -> None:
+        values = self.flags.get("text")
+        name = str(self.column).split("[", 1)[0]
+        hint = (
+            f"; it holds date-time text: drop the unit ('{name}' in the header, or "
+            "unit = 'datetime' in a mapping file) to read it as ISO-8601"
+            if values is not None and _looks_like_iso(values)
+            else ""
+        )
+        raise LogFormatError(
+            self.column,
+            f"{self.src}: column {self.column!r} is not numeric: {self.float_error}{hint}",
+        ) from self.float_error
+
+    def _add_int(self, values: Any) -> None:
+        self.parts.append(np.asarray(values, dtype=np.int64))
+
+    def _add_float(self, values: Any) -> None:
+        try:
+            t = np.asarray(values, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise LogFormatError(
+                self.column, f"{self.src}: column {self.column!r} is not numeric: {exc}"
+            ) from exc
+        bad = ~np.isfinite(t)
+        if bad.any():
+            raise LogFormatError(
+                "t", f"{self.src}: t is NaN or inf at {self.row(self.count + int(np.argmax(bad)))}."
+            )
+        self.parts.append(t)
+
+    def clock(self) -> Clock:
+        """The column read so far as a :class:`Clock`.
+
+        Raises
+        ------
+        LogFormatError
+            for stamps that do not increase (and what :meth:`add` raises).
+        """
+        if self.mode is None or self.count == 0:
+            raise LogFormatError("t", f"{self.src}: column {self.column!r} holds no time stamp.")
+        clock = getattr(self, f"_clock_{self.mode}")()
+        _check_increasing(clock.offsets, self.column, self.src, self.row)
+        return clock
+
+    def _joined(self, parts: list[np.ndarray] | None = None) -> np.ndarray:
+        parts = self.parts if parts is None else parts
+        out = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        self.parts = []
+        return out
+
+    def _clock_datetime(self) -> Clock:
+        f = self.flags
+        first = f["first"].tz_convert("UTC").tz_localize(None) if f["aware"] else f["first"]
+        origin = (
+            f"{first.isoformat()}+00:00" if f["aware"] else f"{first.isoformat()} (no time zone)"
+        )
+        resolution = {"s": 1.0, "ms": 1e-3, "us": 1e-6}.get(f["unit"], 1e-9)
+        kind = "date-times" + (" (UTC)" if f["aware"] else "")
+        return Clock(_from_ticks(self._joined(), 1e9, 1), origin, resolution, kind)
+
+    def _clock_iso(self) -> Clock:
+        import pandas as pd
+
+        ns = self._joined()
+        first = pd.Timestamp(int(ns[0]), unit="ns").isoformat()
+        zoned = self.flags["zoned"]
+        origin = f"{first}+00:00" if zoned else f"{first} (no time zone)"
+        kind = "ISO-8601 text" + (", converted to UTC" if zoned else ", no time zone")
+        return Clock(_from_ticks(ns, 1e9, 1), origin, 10.0 ** -self.flags["digits"], kind)
+
+    def _clock_text(self) -> Clock:
+        assert self.unit is not None
+        mult, div = TIME_UNITS[self.unit]
+        if self.exact:
+            digits = max(d for _t, d in self.parts)
+            # Chunks with fewer printed decimals, to the finest one (exact if it fits).
+            fits = all(int(np.abs(t).max()) * 10 ** (digits - d) < 2**62 for t, d in self.parts)
+            if fits:
+                scaled = [t * 10 ** (digits - d) if d < digits else t for t, d in self.parts]
+                self.floats = None
+                ticks = self._joined(scaled)
+                offsets = _from_ticks(ticks, 10.0**digits * div, mult)
+                origin = f"{self.first} {self.unit}" + _unix(float(self.first) * mult / div)
+                return Clock(offsets, origin, 10.0**-digits * mult / div,
+                             f"decimal text in {self.unit} (read exactly)")  # fmt: skip
+        if self.floats is None:
+            self._not_numeric()
+        self.parts = self.floats or []
+        self.floats = None
+        return self._clock_float()
+
+    def _clock_int(self) -> Clock:
+        assert self.unit is not None
+        mult, div = TIME_UNITS[self.unit]
+        ticks = self._joined()
+        return Clock(
+            _from_ticks(ticks, float(div), mult),
+            f"{int(ticks[0])} {self.unit}" + _unix(int(ticks[0]) * mult / div),
+            mult / div,
+            f"integer counter in {self.unit}",
+        )
+
+    def _clock_float(self) -> Clock:
+        assert self.unit is not None
+        mult, div = TIME_UNITS[self.unit]
+        t = self._joined()
+        bad = ~np.isfinite(t)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise LogFormatError("t", f"{self.src}: t is NaN or inf at {self.row(i)}.")
+        offsets = (t - t[0]) / div * mult
+        resolution = float(np.spacing(np.abs(t).max())) / div * mult
+        first = float(t[0])
+        return Clock(
+            offsets,
+            f"{first!r} {self.unit}" + _unix(first * mult / div),
+            resolution,
+            f"numbers in {self.unit}",
+        )
 
 
 def read_clock(
     values: Any, unit: str | None, column: str, src: str, row: Callable[[int], str]
 ) -> Clock:
-    """Read a time column (see the module docstring).
+    """Read a time column (see the module docstring); :class:`ClockReader` with one
+    chunk.
 
     Parameters
     ----------
@@ -212,84 +472,9 @@ def read_clock(
         date-time column with "s"), NaN or NaT stamps, text that is neither numbers
         nor ISO-8601, stamps that do not increase.
     """
-    import pandas as pd
-
-    dtype = getattr(values, "dtype", np.asarray(values).dtype)
-    is_datetime = pd.api.types.is_datetime64_any_dtype(dtype)
-    if unit is not None and unit not in TIME_UNITS and unit not in CLOCK_UNITS:
-        raise LogFormatError(
-            column,
-            f"{src}: column {column!r}: unknown time unit {unit!r}; accepted: "
-            f"{', '.join(TIME_UNITS)} for numbers, 'datetime' for date-times.",
-        )
-    if is_datetime:
-        if unit in TIME_UNITS:
-            raise LogFormatError(
-                column,
-                f"{src}: column {column!r} holds date-times ({dtype}), not numbers in "
-                f"{unit!r}: drop the unit or give unit = 'datetime'.",
-            )
-        return _datetimes(values, column, src, row)
-    if unit in CLOCK_UNITS:
-        if dtype.kind in "O" or str(dtype).startswith(("string", "str")):
-            return _iso(values, column, src, row)
-        raise LogFormatError(
-            column,
-            f"{src}: column {column!r} holds numbers ({dtype}), not date-times: give its "
-            f"unit ({', '.join(TIME_UNITS)}).",
-        )
-    if dtype.kind == "O" or str(dtype).startswith(("string", "str")):
-        if unit is not None:
-            clock = _decimal_text(values, unit, column, src, row)
-            if clock is not None:
-                return clock
-            try:
-                values = np.asarray(values, dtype=float)
-            except ValueError as exc:
-                name = str(column).split("[", 1)[0]
-                hint = (
-                    f"; it holds date-time text: drop the unit ('{name}' in the header, or "
-                    "unit = 'datetime' in a mapping file) to read it as ISO-8601"
-                    if _looks_like_iso(values)
-                    else ""
-                )
-                raise LogFormatError(
-                    column, f"{src}: column {column!r} is not numeric: {exc}{hint}"
-                ) from exc
-            dtype = values.dtype
-        else:
-            return _iso(values, column, src, row)
-    if unit is None:
-        raise LogFormatError(
-            column,
-            f"{src}: column {column!r} (t) has no unit; write it as 't[s]' (or ms, us, ns) "
-            "in the header or give it in a mapping file.",
-        )
-    mult, div = TIME_UNITS[unit]
-    if dtype.kind in "iu":
-        ticks = np.asarray(values, dtype=np.int64)
-        clock = Clock(
-            _from_ticks(ticks, float(div), mult),
-            f"{int(ticks[0])} {unit}" + _unix(int(ticks[0]) * mult / div),
-            mult / div,
-            f"integer counter in {unit}",
-        )
-        _check_increasing(clock.offsets, column, src, row)
-        return clock
-    try:
-        t = np.asarray(values, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise LogFormatError(column, f"{src}: column {column!r} is not numeric: {exc}") from exc
-    bad = ~np.isfinite(t)
-    if bad.any():
-        raise LogFormatError("t", f"{src}: t is NaN or inf at {row(int(np.argmax(bad)))}.")
-    _check_increasing(t, column, src, row)
-    offsets = (t - t[0]) / div * mult
-    resolution = float(np.spacing(np.abs(t).max())) / div * mult
-    first = float(t[0])
-    return Clock(
-        offsets, f"{first!r} {unit}" + _unix(first * mult / div), resolution, f"numbers in {unit}"
-    )
+    reader = ClockReader(unit, column, src, row)
+    reader.add(values)
+    return reader.clock()
 
 
 @dataclass(frozen=True)

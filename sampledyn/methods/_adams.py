@@ -71,7 +71,9 @@ STABILITY_INTERVAL_MIN = 0.05
 
 
 def _check_order(s: Any) -> int:
-    return checks.count(s, "s", what="order")
+    s = checks.count(s, "s", what="order")
+    checks.check_ab_order(s)  # the coefficients' cost and their stability
+    return s
 
 
 @lru_cache(maxsize=64)

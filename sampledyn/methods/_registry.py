@@ -170,7 +170,7 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
     ("E", r"E", "sampledyn.methods._adams:Euler", "Euler (= AB1 = RK1)", None, None),
     (
         "AB<s>", r"AB(\d+)", "sampledyn.methods._adams:AdamsBashforth",
-        "Adams-Bashforth, s >= 1 (s > 6 warns: stability interval below 0.05)", 6, None,
+        "Adams-Bashforth, 1 <= s <= 28 (s > 6 warns: stability interval below 0.05)", 6, None,
     ),
     ("T", r"T", "sampledyn.methods._tustin:Tustin", "Tustin, implicit trapezoid", None, None),
     (
@@ -180,12 +180,12 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
     (
         "ABu<s>", r"ABu(\d+)", "sampledyn.methods._held:HeldInputAdamsBashforth",
         "Adams-Bashforth with the input held over the predicted interval (f-history at "
-        "u_n), s >= 1", 6, None,
+        "u_n), 1 <= s <= 28", 6, None,
     ),
     (
         "ABj<s>", r"ABj(\d+)", "sampledyn.methods._jump:JumpAwareAdamsBashforth",
         "Adams-Bashforth with the input held and the f-history rebuilt after an input "
-        "jump (order s across jumps), s >= 1", 6, None,
+        "jump (order s across jumps), 1 <= s <= 28", 6, None,
     ),
     (
         "Ee", r"Ee", "sampledyn._estimate._estimated:estimated_euler",
@@ -193,7 +193,7 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
     ),
     (
         "ABe<s>", r"ABe(\d+)", "sampledyn._estimate._estimated:EstimatedAdamsBashforth",
-        "Adams-Bashforth with parameters estimated on the data (l_2), s >= 1", 6, None,
+        "Adams-Bashforth with parameters estimated on the data (l_2), 1 <= s <= 28", 6, None,
     ),
     (
         "ZOH", r"ZOH", "sampledyn.methods._exact:ExactHold",
@@ -239,7 +239,15 @@ def get_method(name: Any) -> Method:
     for fam in _FAMILIES.values():
         m = fam.pattern.fullmatch(key)
         if m:
-            return fam.build(int(m.group(1))) if fam.ordered else fam.build()
+            if not fam.ordered:
+                return fam.build()
+            digits = m.group(1)
+            if len(digits) > 9:  # refused as too large, not parsed (int() of 5000 digits)
+                raise ValueError(
+                    f"method {key[:12]}...: the order of {fam.key} has {len(digits)} digits; "
+                    "orders are small integers (`sampledyn methods` lists them)."
+                )
+            return fam.build(int(digits))
     valid = ", ".join(f"{f.key} ({f.description})" for f in _FAMILIES.values())
     raise ValueError(f"unknown method {name!r}; valid names: {valid}.")
 

@@ -24,7 +24,7 @@ from numba import njit
 
 from .. import _checks as checks
 from .._trajectory import Trajectory
-from ..exceptions import ConvergenceError
+from ..exceptions import ArgumentError, ConvergenceError
 from ..models import Model
 from ._base import FixedRule, check_gain_args, check_ratio, grid_steps, nan_rows, stage_inputs
 from ._program import Combination, Stage, StepProgram
@@ -47,7 +47,9 @@ class Tustin(FixedRule):
     tol : float
         Newton stops when every update satisfies |dx_i| <= tol * (1 + |x_i|).
     max_iter : int
-        Newton iterations before :class:`ConvergenceError` is raised.
+        Newton iterations before :class:`ConvergenceError` is raised, 1 to
+        :data:`sampledyn._checks.MAX_NEWTON_ITER` (1000; more raises
+        :class:`~sampledyn.exceptions.ArgumentError`).
     """
 
     tol: float = 1e-12
@@ -58,6 +60,13 @@ class Tustin(FixedRule):
     def __post_init__(self) -> None:
         checks.positive(self.tol, "tol")
         checks.count(self.max_iter, "max_iter")
+        if self.max_iter > checks.MAX_NEWTON_ITER:
+            raise ArgumentError(
+                "max_iter",
+                f"`max_iter` = {self.max_iter} Newton iterations is more than "
+                f"{checks.MAX_NEWTON_ITER}: Newton converges quadratically, so an iteration "
+                "not converged by then will not converge; use a smaller h or another rule.",
+            )
 
     def with_newton(self, tol: float | None = None, max_iter: int | None = None) -> Tustin:
         """A copy with other Newton options (None keeps the current one)."""

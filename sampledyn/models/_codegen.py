@@ -8,7 +8,8 @@ source into a cache directory, under a name that is the hash of that source, and
 imported from there; its functions are compiled with ``cache=True`` and the project's
 explicit signatures, so a second process loads them in milliseconds.
 
-Cache directory (first that is writable):
+Cache directory (first that is writable; one owned by someone else or writable by
+group or others is refused, not skipped):
 
 1. ``$SAMPLEDYN_CACHE_DIR`` if set;
 2. the user cache directory: ``$XDG_CACHE_HOME/sampledyn`` (default
@@ -18,7 +19,9 @@ Cache directory (first that is writable):
 
 Each generated module lives in ``<dir>/kernels/<stem>.py`` with numba's cache next to
 it (``__pycache__``, or ``$NUMBA_CACHE_DIR``). Files are never rewritten (the name is
-the content hash), so deleting the directory is always safe.
+the content hash), so deleting the directory is always safe. The folders are private
+to the user and checked before use, and a file is checked against its name before it
+runs (:mod:`._kernel_cache`).
 
 Functions in a generated module are compiled lazily: :func:`compiled` compiles (or
 loads from numba's cache) one of them for its declared signature on first use.
@@ -34,11 +37,12 @@ import os
 import sys
 import tempfile
 import threading
-import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
 from typing import Any
+
+from . import _kernel_cache
 
 __all__ = [
     "CACHE_ENV",
@@ -53,7 +57,7 @@ __all__ = [
     "register_batch",
 ]
 
-CACHE_ENV = "SAMPLEDYN_CACHE_DIR"
+CACHE_ENV = _kernel_cache.CACHE_ENV
 # Prefix of the module names of generated modules (not an importable package: they
 # are loaded from their files by :func:`load_module`).
 GENERATED_PACKAGE = "_sampledyn_generated"
@@ -74,17 +78,6 @@ def _user_cache_root() -> Path:
     return Path(base) / "sampledyn"
 
 
-def _writable(path: Path) -> bool:
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        probe = path / f".probe-{os.getpid()}"
-        probe.write_text("")
-        probe.unlink()
-    except OSError:
-        return False
-    return True
-
-
 def cache_dir() -> Path:
     """The directory of generated kernel modules (created if needed).
 
@@ -95,6 +88,14 @@ def cache_dir() -> Path:
         user cache directory and ``<tempdir>/sampledyn-<user>`` (see the module
         docstring). A ``$SAMPLEDYN_CACHE_DIR`` that cannot be written is reported with
         a warning and skipped.
+
+    Raises
+    ------
+    PermissionError
+        (:class:`._kernel_cache.UnsafeCacheError`) for a folder on the way that is not
+        the user's own or that group or others may write, naming ``$SAMPLEDYN_CACHE_DIR``.
+    OSError
+        if no root can be written.
     """
     global _CACHE_DIR
     env = os.environ.get(CACHE_ENV)
@@ -108,39 +109,8 @@ def cache_dir() -> Path:
         roots = [_user_cache_root(), Path(tempfile.gettempdir()) / f"sampledyn-{user}"]
         if env:
             roots.insert(0, Path(env))
-        for root in roots:
-            if _writable(root / "kernels"):
-                if env and root != Path(env):
-                    warnings.warn(
-                        f"${CACHE_ENV}={env!r} is not writable; generated kernels go to "
-                        f"{root} instead. Point ${CACHE_ENV} at a writable directory.",
-                        stacklevel=3,
-                    )
-                _CACHE_DIR = root / "kernels"
-                return _CACHE_DIR
-        raise OSError(
-            f"no writable directory for generated kernels among {[str(r) for r in roots]}; "
-            f"set ${CACHE_ENV} to a writable directory."
-        )
-
-
-def _write_once(path: Path, source: str) -> None:
-    """Create ``path`` with ``source`` unless it exists (atomic; never rewrites it,
-    since numba's cache is keyed by the source file's time stamp)."""
-    if path.exists():
-        return
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-    tmp.write_text(source, encoding="utf-8")
-    try:
-        os.link(tmp, path)  # fails if another process created it meanwhile
-    except FileExistsError:
-        pass
-    except OSError:  # no hard links on this file system
-        if not path.exists():
-            os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+        _CACHE_DIR = _kernel_cache.kernel_dir(roots, env)  # private, checked (0700)
+        return _CACHE_DIR
 
 
 _MODULES: dict[str, ModuleType] = {}
@@ -169,8 +139,7 @@ def load_module(source: str, *, kind: str, globals_: Mapping[str, Any] | None = 
         With ``__file__`` the cached file (or ``None`` with ``globals_``); the same
         module object for the same source within a process.
     """
-    digest = hashlib.sha256(f"{GENERATOR_VERSION}\n{source}".encode()).hexdigest()[:24]
-    stem = f"{kind}_{digest}"
+    stem = _stem_of(source, kind)
     name = f"{GENERATED_PACKAGE}.{stem}"
     with _LOCK:
         if globals_ is None and stem in _MODULES:
@@ -188,15 +157,15 @@ def load_module(source: str, *, kind: str, globals_: Mapping[str, Any] | None = 
             _IN_PROCESS_MODULES[key] = (module, dict(globals_))  # keeps the ids valid
             return module
         path = cache_dir() / f"{stem}.py"
-        _write_once(path, source)
+        _kernel_cache.ensure_source(path, source)  # the file holds exactly `source`
         spec = importlib.util.spec_from_file_location(name, path)
         if spec is None or spec.loader is None:  # pragma: no cover - defensive
             raise ImportError(f"cannot load the generated module {path}.")
         module = importlib.util.module_from_spec(spec)
         module.__dict__["_SAMPLEDYN_CACHE"] = True
         sys.modules[name] = module
-        try:
-            spec.loader.exec_module(module)
+        try:  # the checked text, not a .pyc that could differ from it
+            exec(compile(source, str(path), "exec"), module.__dict__)
         except BaseException:
             del sys.modules[name]
             raise
@@ -211,9 +180,15 @@ def import_generated(stem: str) -> ModuleType:
         if stem in _MODULES:
             return _MODULES[stem]
         path = cache_dir() / f"{stem}.py"
-        source = path.read_text(encoding="utf-8")
-    kind = stem.rsplit("_", 1)[0]
+        kind = stem.rsplit("_", 1)[0]
+        source = _kernel_cache.verified_source(path, lambda text: _stem_of(text, kind))
     return load_module(source, kind=kind)
+
+
+def _stem_of(source: str, kind: str) -> str:
+    """The file stem of a generated module: its kind and the hash of its source."""
+    digest = hashlib.sha256(f"{GENERATOR_VERSION}\n{source}".encode()).hexdigest()[:24]
+    return f"{kind}_{digest}"
 
 
 def _stem(module: ModuleType) -> str:
@@ -269,7 +244,7 @@ def compiled(module: ModuleType, name: str) -> Any:
         with _LOCK:
             disp = getattr(module, name)
             if not disp.signatures:
-                disp.compile(module.SIGNATURES[name])
+                _kernel_cache.compile_or_rebuild(disp, module.SIGNATURES[name], module)
                 disp.disable_compile()
             _COMPILED[key] = disp
     return disp

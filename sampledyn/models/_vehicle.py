@@ -151,7 +151,24 @@ def _array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) -> np.nda
     if bad.size:
         at = ", ".join(str(int(i)) for i in bad[0])
         raise VehicleParameterError(name, f"`{name}[{at}]` must be finite, got {a[tuple(bad[0])]}.")
+    big = np.argwhere(np.abs(a) > MAX_PARAMETER)
+    if big.size:
+        at = ", ".join(str(int(i)) for i in big[0])
+        raise VehicleParameterError(name, _too_big(f"{name}[{at}]", a[tuple(big[0])]))
     return a
+
+
+#: Largest magnitude of a vehicle parameter in SI units: 1e12 kg is a mountain; beyond
+#: it the dynamics' products (M v, the weight m g, damping times squared speeds)
+#: overflow double precision within a few steps, and the first sign is a NaN state.
+MAX_PARAMETER = 1e12
+
+
+def _too_big(name: str, value: float) -> str:
+    return (
+        f"`{name}` = {value:.4g} is beyond {MAX_PARAMETER:g} in SI units: no vehicle is that "
+        "big, and the dynamics would overflow to NaN; check the unit and the exponent."
+    )
 
 
 def _frozen(a: np.ndarray) -> tuple[Any, ...]:
@@ -277,6 +294,8 @@ def _check_declaration(
 def _scalar(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
     check = checks.positive if positive else checks.number
     v = check(value, name, error=VehicleParameterError, types=VehicleParameterError)
+    if abs(v) > MAX_PARAMETER:
+        raise VehicleParameterError(name, _too_big(name, v))
     if nonneg and v < 0:
         raise VehicleParameterError(name, f"`{name}` must be >= 0, got {v}.")
     return v

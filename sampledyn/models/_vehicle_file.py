@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -45,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from .._files import parse_toml, read_text
 from ..exceptions import VehicleParameterError
 from ._vehicle import QUADRATIC_IS_DIAGONAL, SYMMETRY_RTOL, AsymmetricPair, Vehicle, symmetrized
 
@@ -394,7 +394,7 @@ def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehi
     )
     if is_path:
         where = Path(name_or_path)
-        text = where.read_text(encoding="utf-8")
+        text = read_text(where, "vehicle file")  # regular, bounded, UTF-8 (named)
     elif isinstance(name_or_path, str):
         names = builtin_vehicles()
         if name_or_path not in names:
@@ -409,10 +409,7 @@ def load_vehicle(name_or_path: str | os.PathLike[str], **overrides: Any) -> Vehi
         raise TypeError(
             f"`name_or_path` must be a str or a path, got {type(name_or_path).__name__}."
         )
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"vehicle file {where}: not valid TOML: {exc}") from None
+    data = parse_toml(text, f"vehicle file {where}")  # nesting bounded
     kwargs = _parse(where, data)
     try:
         with warnings.catch_warnings(record=True) as caught:

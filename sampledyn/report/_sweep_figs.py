@@ -166,6 +166,8 @@ def plot_order(means: Any, path: Path, title: str, norm: str = "norm") -> Path:
         )
     fig.suptitle(title, fontsize=10, y=1 - 0.12 / fig.get_figheight(), va="top")
     path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_symlink():  # replace a link at this name, never write through it
+        path.unlink()
     fig.savefig(path, dpi=90)
     return path
 
@@ -246,5 +248,7 @@ def plot_ratio_maps(means: Any, path: Path, title: str, norm: str = "norm") -> P
         bar.ax.tick_params(labelsize=7)
     fig.suptitle(title, fontsize=10, y=1 - 0.12 / height, va="top")
     path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_symlink():  # replace a link at this name, never write through it
+        path.unlink()
     fig.savefig(path, dpi=90)
     return path

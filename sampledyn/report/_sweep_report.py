@@ -15,16 +15,26 @@ figure rendered.
 
 from __future__ import annotations
 
+import errno
 import html
+import json
 import os
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from .._files import parse_json, read_text, write_text_atomic
 from ._sweep_figs import ab_orders, noise_label, plot_order, plot_ratio_maps
 
-__all__ = ["ReportFiles", "write_report"]
+__all__ = ["MANIFEST", "REPORT_FILES", "ReportFiles", "write_report"]
+
+#: The report's list of the files it wrote (JSON), in its output folder: the next
+#: report into that folder removes these (figures of studies no longer there), and
+#: nothing else.
+MANIFEST = ".sampledyn-report.json"
+#: What a report writes into its folder ("/": a folder whose files it writes).
+REPORT_FILES = ("index.html", "report.md", "figures/", MANIFEST)
 
 STUDY_COLUMNS = (
     "vehicle",
@@ -376,19 +386,25 @@ def _html(title: str, blocks: list[Block], out: Path) -> str:
     return "\n".join(parts)
 
 
+def _md_text(x: Any) -> str:
+    """Text for Markdown: ``< > &`` as entities, as the HTML page escapes them (a
+    Markdown viewer renders inline HTML), on one line."""
+    return html.escape(str(x), quote=False).replace("\n", " ")
+
+
 def _md_cell(x: Any) -> str:
-    return str(x).replace("|", "\\|").replace("\n", " ")
+    return _md_text(x).replace("|", "\\|")
 
 
 def _markdown(title: str, blocks: list[Block], out: Path) -> str:
-    lines = [f"# {title}", ""]
+    lines = [f"# {_md_text(title)}", ""]
     for b in blocks:
         if b[0] == "h":
-            lines += ["#" * b[1] + " " + b[2], ""]
+            lines += ["#" * b[1] + " " + _md_text(b[2]), ""]
         elif b[0] == "p":
-            lines += [b[1], ""]
+            lines += [_md_text(b[1]), ""]
         elif b[0] == "table":
-            lines += [f"*{b[1]}*", ""]
+            lines += [f"*{_md_text(b[1])}*", ""]
             lines.append("| " + " | ".join(_md_cell(h) for h in b[2]) + " |")
             lines.append("|" + "---|" * len(b[2]))
             lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b[3]]
@@ -431,10 +447,8 @@ def write_report(
     trajs = load(source, "trajectories")
     runs = load(source, "runs")
     out = Path(out)
-    fig_dir = out / "figures"
-    fig_dir.mkdir(parents=True, exist_ok=True)
-    for old in fig_dir.glob("study*.png"):
-        old.unlink()
+    fig_dir = _own_folder(out / "figures")
+    before = _manifest(out)
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     blocks: list[Block] = [
         (
@@ -462,6 +476,40 @@ def write_report(
         blocks += _kind_blocks(i, key, sub, tr)
     html_path = out / "index.html"
     md_path = out / "report.md"
-    html_path.write_text(_html(title, blocks, out))
-    md_path.write_text(_markdown(title, blocks, out))
+    write_text_atomic(html_path, _html(title, blocks, out))
+    write_text_atomic(md_path, _markdown(title, blocks, out))
+    written = {f.name for f in figures}
+    for name in before - written:  # its own figures of an earlier report, only
+        (fig_dir / name).unlink(missing_ok=True)
+    write_text_atomic(out / MANIFEST, json.dumps({"figures": sorted(written)}, indent=1) + "\n")
     return ReportFiles(html_path, md_path, tuple(figures))
+
+
+def _own_folder(path: Path) -> Path:
+    """``path`` as a real folder of the report (created; a symbolic link refused)."""
+    if path.is_symlink():
+        raise NotADirectoryError(
+            errno.ENOTDIR,
+            f"is a symbolic link (to {os.path.realpath(path)}); the report writes its figures "
+            "only into a folder of its own: remove the link or give another --out",
+            str(path),
+        )
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _manifest(out: Path) -> set[str]:
+    """The figure names an earlier report listed in its manifest (plain file names
+    only; a damaged manifest lists nothing, so nothing is removed)."""
+    path = out / MANIFEST
+    try:
+        text = read_text(path, "report manifest", limit=1 << 20) if path.is_file() else "{}"
+        listed = parse_json(text, str(path))
+    except (OSError, ValueError):
+        return set()
+    names = listed.get("figures", []) if isinstance(listed, dict) else []
+    return {
+        n for n in names
+        if isinstance(n, str) and n == Path(n).name and n not in ("", ".", "..")
+        and n.endswith(".png")
+    }  # fmt: skip

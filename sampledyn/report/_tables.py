@@ -8,19 +8,27 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from .._files import csv_safe
+
 __all__ = ["format_grid", "write_csv"]
 
 
 def write_csv(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
-    """Write rows (dicts with the same keys) to a CSV file; returns the path."""
+    """Write rows (dicts) to a CSV file; returns the path.
+
+    The columns are every key of any row, in order of appearance (a failed row's
+    ``error`` too); a row without a key leaves its cell empty. Text a spreadsheet
+    would run as a formula is written as text (:func:`sampledyn._files.csv_safe`).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if not rows:
         raise ValueError("no rows to write.")
+    fields = list(dict.fromkeys(k for r in rows for k in r))
     with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer = csv.DictWriter(fh, fieldnames=fields, restval="")
         writer.writeheader()
-        writer.writerows(rows)
+        writer.writerows({k: csv_safe(v) for k, v in r.items()} for r in rows)
     return path
 
 

@@ -67,6 +67,12 @@ class Multilevel(Signal):
     def levels(self, count: int) -> np.ndarray:
         """The first ``count`` levels, shape (count, nu); a prefix never changes."""
         if count > self._levels.shape[0]:
+            checks.check_memory(
+                8.0 * count * self.nu,
+                f"`hold` = {self.hold:g} s up to t = {count * self.hold:g} s ({count:.4g} levels)",
+                "the input's levels",
+                "use a longer hold or a shorter run",
+            )
             # random() draws are sequential, so a longer draw extends a shorter one.
             rng = np.random.default_rng(self.seed)
             size = max(count, 2 * self._levels.shape[0])
@@ -78,6 +84,9 @@ class Multilevel(Signal):
         t = np.asarray(t, dtype=float)
         if t.size and t.min() < 0:
             raise ValueError(f"Multilevel is defined for t >= 0, got t = {t.min()}.")
+        last = float(t.max()) / self.hold + 1.0 if t.size else 0.0
+        if last > 2**53:  # more levels than any memory (and than int64 time indices)
+            self.levels(int(2**53))
         k = np.floor(t / self.hold + _GRID_SLACK).astype(np.int64)
         top = int(k.max()) + 1 if k.size else 0
         return self.levels(top)[k]

@@ -39,6 +39,7 @@ LAYERS: dict[str, int] = {
     "sampledyn._named": 0,
     "sampledyn._checks": 0,
     "sampledyn.exceptions": 0,
+    "sampledyn._files": 0,
     "sampledyn.models": 1,
     "sampledyn.signals": 1,
     "sampledyn.methods": 2,

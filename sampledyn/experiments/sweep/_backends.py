@@ -17,8 +17,10 @@ at once when the sweep is interrupted.
 from __future__ import annotations
 
 import ctypes
+import math
 import multiprocessing
 import os
+import re
 import signal
 import sys
 import threading
@@ -35,6 +37,8 @@ from ._compute import ChunkResult, SimResult
 __all__ = [
     "DASK_WORKER_ENVIRON",
     "check_dask_workers",
+    "check_scheduler",
+    "check_timeout",
     "connect",
     "dask_backend",
     "in_process",
@@ -259,13 +263,69 @@ def local_processes(
 # -- Dask -----------------------------------------------------------------------------
 
 
+_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+_ADDRESS = re.compile(
+    r"(?P<scheme>[a-z]+)://(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):(?P<port>[0-9]{1,5})"
+)
+
+
+def check_scheduler(address: Any, *, warn: bool = True) -> None:
+    """Refuse a Dask scheduler address that is not ``SCHEME://HOST:PORT`` (scheme one
+    of tcp, tls, ucx, ws, wss; port 1..65535), before Dask tries it; warn when a
+    ``tcp://`` address is not on this machine (loopback): a Dask scheduler and its
+    workers exchange pickles, which run code in the client, in the clear.
+
+    Raises
+    ------
+    ValueError
+        naming the address and the expected form.
+    """
+    m = _ADDRESS.fullmatch(address) if isinstance(address, str) else None
+    if m is None or m["scheme"] not in _SCHEMES or not 1 <= int(m["port"]) <= 65535:
+        raise ValueError(
+            f"`scheduler` {address!r} is not a Dask scheduler address SCHEME://HOST:PORT "
+            f"(scheme {', '.join(_SCHEMES[:-1])}; port 1..65535), e.g. tcp://127.0.0.1:8786."
+        )
+    if warn and m["scheme"] == "tcp" and not _loopback(m["host"].strip("[]")):
+        warnings.warn(
+            f"`scheduler` {address!r}: a Dask scheduler runs pickled code from its workers in "
+            "this process, and tcp:// is neither encrypted nor authenticated; use it only on a "
+            "trusted network, or a tls:// address (docs/sweeps.md, 'Trust').",
+            stacklevel=3,
+        )
+
+
+def check_timeout(timeout: Any) -> None:
+    """Refuse a ``connect_timeout`` that is not a finite number of seconds > 0."""
+    if (
+        isinstance(timeout, bool)
+        or not isinstance(timeout, int | float)
+        or not (math.isfinite(timeout) and timeout > 0)
+    ):
+        raise ValueError(
+            f"`connect_timeout` must be a finite number of seconds > 0, got {timeout!r}; e.g. 30."
+        )
+
+
+def _loopback(host: str) -> bool:
+    import ipaddress
+
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def connect(address: str, timeout: float = 30.0) -> Any:
     """A Dask distributed client of the scheduler at ``address``.
 
     Raises
     ------
     ValueError
-        if Dask distributed is not installed.
+        if Dask distributed is not installed, the address is malformed
+        (:func:`check_scheduler`) or the timeout not a positive number.
     ConnectionError
         naming the address, if the scheduler does not answer within ``timeout`` s.
     """
@@ -275,6 +335,8 @@ def connect(address: str, timeout: float = 30.0) -> Any:
         raise ValueError(
             "`scheduler` needs Dask distributed: pip install 'sampledyn[dask]'."
         ) from exc
+    check_scheduler(address, warn=False)
+    check_timeout(timeout)
     try:
         return Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:

@@ -23,6 +23,7 @@ depends on what a cell computes.
 from __future__ import annotations
 
 import os
+import re
 import socket
 import warnings
 from collections.abc import Mapping
@@ -294,16 +295,28 @@ _BUILT_IN: dict[str, str] = {
 }
 
 
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
 def register_cell_kind(kind: CellKind) -> None:
     """Make ``kind`` available to sweep files and studies as ``kind.name``.
 
     Raises
     ------
     ValueError
-        if the name is empty or taken by another kind.
+        if the name is empty or taken by another kind, or a name that becomes a
+        column or view of the store (the kind's, its measure's, its columns') is not a
+        plain identifier (letters, digits, underscores).
     """
     if not kind.name:
         raise ValueError("a cell kind needs a `name`.")
+    for what, text in [("name", kind.name), ("measure_name", kind.measure_name),
+                       *(("columns", n) for n, _t in kind.columns)]:  # fmt: skip
+        if not _IDENTIFIER.fullmatch(text):
+            raise ValueError(
+                f"cell kind {kind.name!r}: `{what}` {text!r} must be a plain identifier "
+                "(letters, digits, underscores; it names a column or view of the store)."
+            )
     old = _KINDS.get(kind.name)
     if old is not None and type(old) is not type(kind):
         raise ValueError(f"cell kind {kind.name!r} is already registered ({old!r}).")

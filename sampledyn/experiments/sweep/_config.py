@@ -53,14 +53,15 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from ... import _checks as checks
-from ...exceptions import SweepConfigError
+from ..._files import parse_toml, read_text
+from ..._noise import MAX_NOISE_PCT
+from ...exceptions import FileContentError, SweepConfigError
 from ...methods import families
 from ...models import FEEDBACK_LAWS, MODELS, Model
 from ...models._names import is_model_file, model_names
@@ -320,12 +321,12 @@ def load_config(path: str | os.PathLike[str], *, vehicle: str | None = None) -> 
         if ``path`` does not exist.
     """
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"sweep file {str(path)!r} does not exist.")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepConfigError("<file>", f"{path}: not valid TOML: {exc}") from exc
+    try:  # a regular file, bounded, UTF-8, TOML nested a few levels
+        data = parse_toml(read_text(path, "sweep file"), str(path))
+    except FileContentError as exc:
+        raise SweepConfigError("<file>", str(exc)) from None
     if vehicle is not None:
         data["vehicle"] = str(Path(vehicle).resolve()) if is_model_file(vehicle) else vehicle
     return _parse(data, path.resolve().parent, str(path))
@@ -378,6 +379,12 @@ def check_time_grid(
     T, after = checks.time_window(T, after, where=_where(src), **_GRID_ERRORS)
     hs = _number_list("h", h, src, positive=True)
     for period in hs:
+        if period < checks.MIN_STEP:
+            raise SweepConfigError(
+                "h",
+                f"`h` = {period:g} s{_where(src)} is below the smallest sampling period "
+                f"{checks.MIN_STEP:g} s (sample times t = n h lose their meaning below it).",
+            )
         if checks.integer_ratio(T, period) is None:
             near = _nearby_divisor(T, period)
             hint = "" if near is None else f" (e.g. {near:g} s)"
@@ -509,6 +516,12 @@ def _percent(key: str, value: Any, src: str) -> float:
     out = _number(key, value, src)
     if out < 0:
         raise SweepConfigError(key, f"`{key}`{_where(src)} must be percentages >= 0, got {value}.")
+    if out > MAX_NOISE_PCT:
+        raise SweepConfigError(
+            key,
+            f"`{key}`{_where(src)}: {out:g} % is above {MAX_NOISE_PCT:g} % (noise ten times the "
+            "motion: the errors would measure the noise alone).",
+        )
     return out
 
 
@@ -532,17 +545,25 @@ def _noise_pairs(noise: Any, src: str) -> Sequence[tuple[float, float]]:
 
 
 def _seed_list(seeds: Any, src: str) -> Sequence[int]:
-    if isinstance(seeds, range) and seeds.step == 1 and seeds.start >= 0 and len(seeds) > 0:
-        return seeds
-    ok = isinstance(seeds, Sequence) and len(seeds) > 0
-    ok = ok and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
-    if not ok or len(set(seeds)) != len(seeds):
+    if isinstance(seeds, range) and seeds.step == 1 and 0 <= seeds.start < seeds.stop:
+        top = seeds.stop - 1  # (a count of seeds is bounded by max_cells)
+    else:
+        ok = isinstance(seeds, Sequence) and len(seeds) > 0
+        ok = ok and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
+        if not ok or len(set(seeds)) != len(seeds):
+            raise SweepConfigError(
+                "seeds",
+                f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got "
+                f"{list(seeds) if isinstance(seeds, range) else seeds!r}.",
+            )
+        top = max(seeds)
+    if top > checks.MAX_SEED:
         raise SweepConfigError(
             "seeds",
-            f"`seeds`{_where(src)} must be a count or a list of distinct ints >= 0, got "
-            f"{list(seeds) if isinstance(seeds, range) else seeds!r}.",
+            f"`seeds`{_where(src)}: seed {top:.4g} is beyond {checks.MAX_SEED} (2^63 - 1, what the "
+            "store keeps); give smaller seeds.",
         )
-    return tuple(seeds)
+    return seeds if isinstance(seeds, range) else tuple(seeds)
 
 
 def _norm_texts(norms: Any, kind: CellKind, src: str) -> tuple[str, ...]:
@@ -564,8 +585,13 @@ def _norm_texts(norms: Any, kind: CellKind, src: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(out))
 
 
-def _count(key: str, value: Any, src: str, *, least: int) -> int:
-    return checks.count(value, key, least=least, where=_where(src), **_GRID_ERRORS)
+def _count(key: str, value: Any, src: str, *, least: int, most: int = checks.MAX_SEED) -> int:
+    out = checks.count(value, key, least=least, where=_where(src), **_GRID_ERRORS)
+    if out > most:
+        raise SweepConfigError(
+            key, f"`{key}`{_where(src)} must be an int <= {most}, got {out:.4g}."
+        )
+    return out
 
 
 def _distribution(value: Any, src: str) -> str:

@@ -128,9 +128,38 @@ def _mask_pitch(clean: Any, model: Model, lo: float, hi: float, window: float = 
         )
     theta = np.degrees(np.abs(clean.x[:, names.index("theta")]))
     w = int(window)
-    # Row k predicts sample k from samples k-1 .. k-w+1: its largest |theta| over them.
-    worst = np.max(np.stack([np.roll(theta, j) for j in range(w)]), axis=0)
+    # Row k predicts sample k from samples k-1 .. k-w+1: its largest |theta| over them
+    # (one running maximum: memory of one array whatever the window).
+    worst = theta.copy()
+    for j in range(1, w):
+        np.maximum(worst, np.roll(theta, j), out=worst)
     return (worst >= lo) & (worst < hi)
+
+
+#: Longest history or window (samples) a mask takes: a prediction's history is at most
+#: MAX_AB_ORDER + 1 samples; a thousand is far beyond any rule's.
+MAX_MASK_WINDOW = 1000
+
+
+def _window(value: float, what: str) -> str | None:
+    if not float(value).is_integer() or not 1 <= value <= MAX_MASK_WINDOW:
+        return (
+            f"{what} must be a whole number of samples in 1..{MAX_MASK_WINDOW}, got {value:g}"
+            + (" (it would be read as " + f"{int(value)})" if not float(value).is_integer()
+               else "")
+        )  # fmt: skip
+    return None
+
+
+def _check_history(args: tuple[float, ...]) -> str | None:
+    return _window(args[0], "HISTORY") if args else None
+
+
+def _check_pitch(args: tuple[float, ...]) -> str | None:
+    lo, hi = args[0], args[1]
+    if not 0 <= lo < hi:
+        return f"needs 0 <= LO < HI (deg), got LO = {lo:g}, HI = {hi:g}"
+    return _window(args[2], "WINDOW") if len(args) > 2 else None
 
 
 @dataclass(frozen=True)
@@ -138,6 +167,7 @@ class _Mask:
     function: Callable[..., np.ndarray]
     arity: tuple[int, int]  # least and most arguments
     text: str  # "{history}" stands for smooth_history()
+    check: Callable[[tuple[float, ...]], str | None] = _check_history
 
     @property
     def description(self) -> str:
@@ -160,6 +190,7 @@ _MASKS: dict[str, _Mask] = {
         _mask_pitch,
         (2, 3),
         "samples whose largest |theta| over the last WINDOW = 5 samples is in [LO, HI) deg",
+        _check_pitch,
     ),
 }
 
@@ -272,6 +303,9 @@ def parse_norm(text: Any) -> NormSpec:
             raise ValueError(
                 f"norm {text!r}: mask {mask!r} takes {lo} to {hi} numbers, got {len(margs)}."
             )
+        problem = _MASKS[mask].check(margs)
+        if problem is not None:
+            raise ValueError(f"norm {text!r}: mask {mask!r} {problem}.")
     part = "noise" if m["part"] else "disturbed"
     return NormSpec(kind, part, kargs, units, mask, margs)
 

@@ -307,6 +307,20 @@ def _reference(config: SweepConfig, signals: tuple[Any, ...]) -> Any:
     return reference.clean if reference.clean is not None else reference
 
 
+def _check_memory(config: SweepConfig, model: Any, p: float) -> None:
+    """Refuse, before anything runs, a trajectory at period ``p`` whose exact samples
+    and the arrays of one group of cells (measured copy, f values, predictions,
+    errors) would not fit the memory limit (:func:`sampledyn._checks.check_memory`)."""
+    n = checks.samples_of(config.T, p)
+    nx, nu = int(model.nx), int(model.nu)
+    estimate = checks.trajectory_bytes(n, nx, nu) + 8.0 * n * nx * 6
+    checks.check_memory(
+        estimate,
+        f"`h` = {p:g} s with `T` = {config.T:g} s ({n:.4g} samples per trajectory)",
+        "the exact samples and one group of cells",
+    )
+
+
 def plan_study(config: SweepConfig) -> Study:
     """Build the model and inputs, check them against the grid, and key the
     trajectories; the cells are listed lazily (:meth:`Study.iter_groups`).
@@ -315,6 +329,8 @@ def plan_study(config: SweepConfig) -> Study:
     ------
     ValueError
         if the vehicle or an input cannot be built (the message names them).
+    WorkLimitError
+        (a ValueError) if one simulation's arrays would exceed the memory limit.
     """
     from ..._version import __version__
 
@@ -324,6 +340,8 @@ def plan_study(config: SweepConfig) -> Study:
         raise ValueError(
             f"`x0` needs {model.nx} numbers for {config.vehicle!r}, got {len(config.x0)}."
         )
+    for h in config.h:  # before anything allocates by T / h (the inputs' levels too)
+        _check_memory(config, model, h)
     signals = _signals(config, model)
     reference = _reference(config, signals)
     mfp = model_fingerprint(model)

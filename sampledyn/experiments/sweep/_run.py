@@ -22,15 +22,19 @@ import math
 import os
 import threading
 import time
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ... import _checks as checks
+from ..._files import parse_json
 from ...exceptions import SweepConfigError
 from ._backends import (
     check_dask_workers,
+    check_scheduler,
+    check_timeout,
     connect,
     dask_backend,
     in_process,
@@ -436,6 +440,8 @@ def run_sweep(
         workers terminated, claims released).
     """
     backend, n_workers = _backend(workers, scheduler, groups_per_chunk, lease)
+    if scheduler is not None:
+        check_timeout(connect_timeout)
     t_start = time.perf_counter()
     if isinstance(config, Study):
         study = config
@@ -472,6 +478,9 @@ def run_sweep(
                 if backend == "in-process"
                 else _groups_per_chunk(study.groups_per_trajectory, n_workers)
             )
+        workers = _capped_workers(workers, study, groups_per_chunk)
+        if workers is not None:
+            backend = f"processes:{workers}"
         summary = _run(
             study, st, backend, workers, client, groups_per_chunk, retry_failed, progress, lease
         )
@@ -504,10 +513,26 @@ def _backend(
         checks.count(groups_per_chunk, "groups_per_chunk")
     checks.positive(lease, "lease", unit="s")
     if scheduler is not None:
+        check_scheduler(scheduler)  # malformed: refused; tcp:// off this machine: a warning
         return f"dask:{scheduler}", 1
     if workers is not None:
         return f"processes:{workers}", workers
     return "in-process", 1
+
+
+def _capped_workers(workers: int | None, study: Study, groups_per_chunk: int) -> int | None:
+    """``workers`` capped at the cores (:func:`sampledyn._checks.worker_count`) and at
+    the tasks of the grid, with a warning that says so."""
+    if workers is None:
+        return None
+    count, note = checks.worker_count(workers, "workers")
+    tasks = max(1, len(study.trajectories) * math.ceil(study.groups_per_trajectory
+                                                        / groups_per_chunk))  # fmt: skip
+    if tasks < count:
+        count, note = tasks, f"workers {workers} capped at {tasks}: the grid has {tasks} tasks"
+    if note is not None:
+        warnings.warn(note, stacklevel=3)
+    return count
 
 
 def _found(study: Study, store: Any, retry_failed: bool) -> int:
@@ -771,4 +796,8 @@ def backend_options(
 
 def _decoded(text: Any) -> dict[str, Any]:
     """A JSON column (``summary``, ``result``) as a dict (empty if NULL)."""
-    return json.loads(text) if isinstance(text, str) and text else {}
+    return (
+        dict(parse_json(text, "a results store's JSON column"))
+        if isinstance(text, str) and text
+        else {}
+    )

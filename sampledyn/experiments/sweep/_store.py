@@ -46,6 +46,14 @@ claims
     split the work; the claims of a run that died (its process is gone, or its
     heartbeat is older than the lease) are taken over.
 
+A store holds data only. On every open, before anything is read from or written to
+its tables, the expected objects (``meta``, ``cells``, ``trajectories``, ``runs``,
+``claims``) must be plain tables; a trigger, a view other than the ``cells_<kind>``
+views the store itself creates (checked by their exact SQL), or an index of another
+table is refused naming the object, and the file is left untouched. Connections run
+with ``PRAGMA trusted_schema = OFF``, so nothing in the schema can call functions
+with side effects.
+
 The database runs in WAL mode and every batch of rows is one transaction, so a
 process killed at any moment (even SIGKILL) leaves every committed row intact and the
 file consistent. A finished ("ok") row is never replaced.
@@ -60,6 +68,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import socket
 import sqlite3
 import time
@@ -70,6 +79,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..._files import parse_json, regular_file
 from ...exceptions import NotAStoreError
 
 __all__ = [
@@ -241,6 +251,63 @@ def _translated(path: Path) -> Iterator[None]:
         raise os_error(exc, path) from exc
 
 
+_EXPECTED = ("meta", *("cells", "trajectories", "runs"), "claims")
+# The exact form of a view the store creates (see ResultStore._view_sql): quoted
+# column names of ``cells``, the measure under the kind's name, one kind.
+_VIEW_COLUMN = r'"[A-Za-z0-9_]+"(?: AS "[A-Za-z0-9_]+")?'
+_VIEW_SQL = re.compile(
+    r'CREATE VIEW "cells_(?P<kind>[A-Za-z0-9_]+)" AS SELECT '
+    rf"(?P<cols>{_VIEW_COLUMN}(?:, {_VIEW_COLUMN})*)"
+    r" FROM cells WHERE kind = '(?P=kind)'"
+)
+
+
+def _secure(conn: sqlite3.Connection) -> sqlite3.Connection:
+    """No function with side effects from the schema (views, triggers, defaults)."""
+    conn.execute("PRAGMA trusted_schema = OFF")
+    return conn
+
+
+def _schema_problem(rows: Sequence[tuple[Any, ...]], cell_columns: set[str]) -> str | None:
+    """What in a store's ``sqlite_master`` rows (type, name, tbl_name, sql) is not
+    data, or None: an expected object that is not a table, then any trigger, then a
+    view that is not one the store creates. (Indexes and other tables are data; with
+    the schema untrusted an index can call no function with side effects.)"""
+    for typ, name, _table, _sql in rows:
+        if name in _EXPECTED and typ != "table":
+            return f"its {name!r} is a {typ}, not a table"
+    for typ, name, table, _sql in rows:
+        if typ == "trigger":
+            return f"it has a trigger {name!r} (on {table!r})"
+    for typ, name, _table, sql in rows:
+        if typ != "view":
+            continue
+        match = _VIEW_SQL.fullmatch(sql or "")
+        if match is None or name != f"cells_{match['kind']}":
+            return f"it has a view {name!r} that the store does not create"
+        used = {c.split(" AS ")[0].strip('"') for c in match["cols"].split(", ")}
+        if not used <= cell_columns:
+            return f"its view {name!r} names columns that cells does not have"
+    return None
+
+
+def _check_objects(conn: sqlite3.Connection, path: Path) -> None:
+    """Refuse (:class:`NotAStoreError`, file untouched) a store whose schema holds
+    anything but data (see :func:`_schema_problem`)."""
+    rows = conn.execute("SELECT type, name, tbl_name, sql FROM sqlite_master").fetchall()
+    columns = (
+        {r[1] for r in conn.execute("PRAGMA table_info(cells)")}
+        if any(r[0] == "table" and r[1] == "cells" for r in rows)
+        else set()
+    )
+    problem = _schema_problem(rows, columns)
+    if problem is not None:
+        raise NotAStoreError(
+            f"{str(path)!r} is refused as a results store: {problem}; a store holds data "
+            "only, never code that runs on reading or writing. It was left untouched."
+        )
+
+
 def _process_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -264,6 +331,7 @@ def inspect_store(path: Path) -> str:
         )
     if not path.exists():
         return "missing"
+    regular_file(path, "results store", limit=None)  # a FIFO would block, /dev/zero fill
     with path.open("rb") as fh:
         head = fh.read(100)
     if not head:
@@ -277,6 +345,11 @@ def inspect_store(path: Path) -> str:
     if app_id == APPLICATION_ID:
         return "store"
     tables = _table_names(path) if app_id == 0 else set()
+    if app_id == 0 and {"meta", *_TABLES} <= tables:
+        problem = _schema_problem(_read_only_query(path, _MASTER), set())
+        if problem is not None and "view" not in problem:  # older stores have no views
+            raise NotAStoreError(f"{str(path)!r} is refused as a results store: {problem}; "
+                                 f"{untouched}.")  # fmt: skip
     if {"meta", *_TABLES} <= tables and _meta_version(path) in (SCHEMA_VERSION, *_OLDER_SCHEMAS):
         return "older"
     what = f"application id {app_id:#010x}" if app_id else "no sampledyn mark"
@@ -295,7 +368,7 @@ def _read_only_query(path: Path, sql: str) -> list[tuple[Any, ...]]:
         modes.append({"mode": "ro"})
     rows: list[tuple[Any, ...]] = []
     for params in modes:
-        conn = sqlite3.connect(_uri(path, **params), uri=True)
+        conn = _secure(sqlite3.connect(_uri(path, **params), uri=True))
         try:
             rows = conn.execute(sql).fetchall()
         except sqlite3.Error:
@@ -305,6 +378,9 @@ def _read_only_query(path: Path, sql: str) -> list[tuple[Any, ...]]:
         if rows:
             break
     return rows
+
+
+_MASTER = "SELECT type, name, tbl_name, sql FROM sqlite_master"
 
 
 def _table_names(path: Path) -> set[str]:
@@ -393,6 +469,11 @@ class ResultStore:
         else:
             self._conn = self._connect()
             with _translated(self.path):
+                try:
+                    _check_objects(self._conn, self.path)  # before anything runs on it
+                except NotAStoreError:
+                    self._conn.close()
+                    raise
                 if kind == "empty":
                     self._init_schema()
                 elif kind == "older":
@@ -412,7 +493,7 @@ class ResultStore:
     def _connect(self) -> sqlite3.Connection:
         with _translated(self.path):
             # Autocommit; writes use explicit BEGIN IMMEDIATE ... COMMIT.
-            conn = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
+            conn = _secure(sqlite3.connect(self.path, timeout=60.0, isolation_level=None))
             conn.execute("PRAGMA busy_timeout = 60000")
             # NORMAL in WAL mode: a killed process loses nothing committed; a power cut
             # may lose the last commits but never corrupts the file.
@@ -427,13 +508,23 @@ class ResultStore:
             # everything, and an immutable open reads it without creating -wal/-shm.
             modes.reverse()
         for params in modes:
-            conn = sqlite3.connect(_uri(self.path, **params), uri=True, timeout=60.0)
+            conn = _secure(sqlite3.connect(_uri(self.path, **params), uri=True, timeout=60.0))
             try:
-                conn.execute("SELECT COUNT(*) FROM meta").fetchone()
-                return conn
+                conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()
             except sqlite3.OperationalError as exc:
                 # mode=ro needs the -shm file of a WAL store; on read-only media SQLite
                 # cannot create it, and only an immutable open reads the file.
+                conn.close()
+                last = exc
+                continue
+            try:
+                _check_objects(conn, self.path)  # before anything is read from it
+                conn.execute("SELECT COUNT(*) FROM meta").fetchone()
+                return conn
+            except NotAStoreError:
+                conn.close()
+                raise
+            except sqlite3.OperationalError as exc:
                 conn.close()
                 last = exc
         assert last is not None
@@ -545,7 +636,8 @@ class ResultStore:
             ).fetchall()
             for key, kind_name, text in rows:
                 declared = {n for n, _t in _kind_of(kind_name, self.path).columns}
-                named = {k: v for k, v in json.loads(text).items() if k in declared}
+                found = parse_json(text, f"results store {str(self.path)!r}: cell {key}")
+                named = {k: v for k, v in dict(found).items() if k in declared}
                 if named:
                     sets = ", ".join(f'"{k}" = ?' for k in named)
                     conn.execute(f"UPDATE cells SET {sets} WHERE key = ?", (*named.values(), key))
@@ -569,15 +661,22 @@ class ResultStore:
                     "kind's column."
                 )
 
-    def _create_view(self, kind: Any) -> None:
+    @staticmethod
+    def _view_sql(kind: Any) -> str:
+        """The SQL of the view of ``kind``, as SQLite keeps it (checked on open
+        against :data:`_VIEW_SQL`)."""
         common = [n for n, _t in CELL_COLUMNS]
         cols = [f'"{n}"' if n != "measure" else f'"measure" AS "{kind.measure_name}"'
                 for n in common]  # fmt: skip
         cols += [f'"{n}"' for n, _t in kind.columns if n not in common]
-        self._conn.execute(
-            f'CREATE VIEW IF NOT EXISTS "cells_{kind.name}" AS SELECT {", ".join(cols)} '
+        return (
+            f'CREATE VIEW "cells_{kind.name}" AS SELECT {", ".join(cols)} '
             f"FROM cells WHERE kind = '{kind.name}'"
         )
+
+    def _create_view(self, kind: Any) -> None:
+        sql = self._view_sql(kind)
+        self._conn.execute(sql.replace("CREATE VIEW", "CREATE VIEW IF NOT EXISTS", 1))
 
     def ensure_kind(self, kind: Any) -> None:
         """Make the store ready for cells of ``kind``: its value columns and its view
@@ -892,7 +991,7 @@ def _generic_row(row: dict[str, Any]) -> dict[str, Any]:
     out["kind"] = row.get("kind") or "prediction"
     text = row.get("result")
     if isinstance(text, str) and text:
-        out.update(json.loads(text))
+        out.update(parse_json(text, "a schema-2 store's result column"))
     return out
 
 
@@ -964,7 +1063,8 @@ def _generic_frame(df: Any) -> Any:
         df["kind"] = "prediction"
     if "result" not in df.columns:
         return df
-    parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in df["result"]]
+    parsed = [parse_json(t, "a schema-2 store's result column") if isinstance(t, str) and t else {}
+              for t in df["result"]]  # fmt: skip
     df = df.drop(columns="result")
     names = [n for n in dict.fromkeys(k for r in parsed for k in r) if n not in df.columns]
     if names:
