@@ -29,7 +29,12 @@ from .. import _checks as checks
 from .._predict import check_measured
 from .._simulate import switching
 from .._trajectory import Trajectory
-from ..exceptions import ArgumentError, ConvergenceError, JacobianUnavailableError
+from ..exceptions import (
+    ArgumentError,
+    ConvergenceError,
+    IntegrationError,
+    JacobianUnavailableError,
+)
 from ..methods import DiscreteTimeSystem, Estimator, Method, get_method
 from ..methods._base import uniform_step
 from ..models import Model
@@ -72,9 +77,14 @@ CACHE = False
 _SW_P = np.array({sp!r}, dtype=np.float64)
 _SW_IO = np.array({io!r}, dtype=np.bool_)
 
+"""
 
+# ``{name}(t, x, u, p, h, rtol, atol, out)``: the integrator on the field ``{field}``
+# over [t, t + h] with u held, from x (all of ``out``'s length: the state, or the state
+# and its sensitivities).
+_FLOW = """
 @njit(cache=CACHE, error_model="numpy")
-def flow(t, x, u, p, h, rtol, atol, out):
+def {name}(t, x, u, p, h, rtol, atol, out):
     nx = x.shape[0]
     nu = u.shape[0]
     nodes = np.empty(2)
@@ -93,12 +103,47 @@ def flow(t, x, u, p, h, rtol, atol, out):
     diff = np.empty((1, nx))
     restart = np.ones(2, dtype=np.bool_)
     status, _ = _integrate_intervals(
-        _rhs_kernel, _no_gradient, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol,
+        {field}, _no_gradient, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol,
         False, 0, 1,
         h, _sw_kernel, _SW_P, _SW_IO, X, steps, diff, restart,
     )
     for j in range(nx):
         out[j] = X[1, j] if status == 0 else np.nan
+"""
+
+_BIND_JAC_U = """
+jac_u = njit(inline="always", error_model="numpy")(_jac_u_kernel.py_func)
+"""
+
+# The variational equations of the flow (ZOH's exact linearisation off an
+# equilibrium): y = (x, M) with M = [Phi | Gamma] row by row, shape (nx, nx + nu),
+# M' = df/dx(t, x, u) M + [0 | df/du(t, x, u)] from M(t_n) = [I | 0]; integrated with
+# the state by the same interval integrator (error control on every entry).
+_VARIATIONAL = """
+from sampledyn.models._base import RHS_SIG as _RHS_SIG
+from sampledyn.models._closed_loop import stack_buffer
+
+NX = {nx}
+NU = {nu}
+
+
+# (df/dx and df/du on the stack: the integrator's work arrays are not reference
+# counted while it runs, so its field allocates nothing on the heap.)
+@njit(_RHS_SIG, error_model="numpy")
+def _variational_field(t, y, u, p, out):
+    x = y[:NX]
+    rhs(t, x, u, p, out[:NX])
+    J = stack_buffer({nxx}).reshape((NX, NX))
+    jac(t, x, u, p, J)
+    Ju = stack_buffer({nxu}).reshape((NX, NU))
+    jac_u(t, x, u, p, Ju)
+    w = NX + NU
+    for i in range(NX):
+        for j in range(w):
+            s = Ju[i, j - NX] if j >= NX else 0.0
+            for k in range(NX):
+                s += J[i, k] * y[NX + k * w + j]
+            out[NX + i * w + j] = s
 """
 
 # Generic over the rule: z from sampled data (the layout's blocks) and k steps.
@@ -177,27 +222,30 @@ def rollout_f(t, x, u, p, h, k, out):
 """
 
 
-def _rule(method: str | Method) -> Any:
-    """The rule object, or a ValueError saying why it is not a discrete-time system."""
+def _rule(method: str | Method, argument: str | None = "method") -> Any:
+    """The rule object, or a ValueError saying why it is not a discrete-time system,
+    naming ``argument`` (``None``: the caller names it)."""
     rule: Any = get_method(method)
     if isinstance(rule, DiscreteTimeSystem):
         return rule
+    where = "" if argument is None else f"`{argument}` "
     if isinstance(rule, Estimator):
         raise ValueError(
-            f"`method` {rule.name!r} estimates the model's parameters on the data it "
+            f"{where}{rule.name!r} estimates the model's parameters on the data it "
             "predicts, so it has no fixed map z+ = F(z, u) to discretize. Estimate "
             "first (sampledyn.estimate), then discretize the fitted model with the "
             "fixed rule, e.g. discretize(result.model, 'AB4', h)."
         )
     why = getattr(rule, "no_discrete_step", "it does not state its step z+ = F(z, u)")
-    raise ValueError(f"`method` {rule.name!r} cannot be discretized: {why}.")
+    raise ValueError(f"{where}{rule.name!r} cannot be discretized: {why}.")
 
 
-def check_rule(method: str | Method) -> None:
+def check_rule(method: str | Method, argument: str | None = "method") -> None:
     """Raise a ValueError saying why ``method`` (a registry name or rule object) is not
-    a discrete-time system z+ = F(z, u) (the estimated rules, ABj_s); pass otherwise.
-    For studies that design on each rule, before any work."""
-    _rule(method)
+    a discrete-time system z+ = F(z, u) (the estimated rules, ABj_s), naming
+    ``argument`` (``None``: the caller names it, as a grid's check of `methods`
+    does); pass otherwise. For studies that design on each rule, before any work."""
+    _rule(method, argument)
 
 
 def _module(model: Model, step: Any) -> tuple[Any, Any]:
@@ -207,18 +255,13 @@ def _module(model: Model, step: Any) -> tuple[Any, Any]:
     jac = None
     if needs_jac:
         try:
-            jac, p_jac = model.jacobian_kernel()
+            jac = _on_parameters(model.jacobian_kernel(), p, model, "the compiled step")
         except JacobianUnavailableError as exc:
             raise ValueError(
                 f"the step solves an implicit stage with the model's compiled Jacobian "
                 f"kernel, and {type(model).__name__} has none ({exc}). Use an explicit "
                 "rule (E, AB<s>, ABu<s>, RK<s>) for this model."
             ) from None
-        if p_jac is not p and not np.array_equal(p_jac, p):
-            raise ValueError(
-                f"{type(model).__name__}: its rhs and Jacobian kernels take different "
-                "parameter arrays; the compiled step needs one."
-            )
     layout = step.layout
     kinds = [0 if kind == "x" else 1 for kind, _ in layout]
     lags = [int(lag) for _, lag in layout]
@@ -228,20 +271,60 @@ def _module(model: Model, step: Any) -> tuple[Any, Any]:
     body = _BIND + (_BIND_JAC if needs_jac else "")
     kernels = {"_rhs_kernel": rhs, **({"_jac_kernel": jac} if needs_jac else {})}
     if "flow" in step.kernels:
-        refuse_jumps(
-            model, "model", "the exact-flow step integrates one interval without the "
-            "branches of f; use sampledyn.simulate for its exact samples.",
-        )  # fmt: skip
-        sw, sp, io = switching(model)
-        body += _BIND_FLOW.format(sp=[float(v) for v in sp], io=[bool(v) for v in io])
-        kernels["_sw_kernel"] = sw
+        body += _bind_flow(model, kernels) + _FLOW.format(name="flow", field="_rhs_kernel")
     body += step.source() + rollout
+    return _load(body, kernels), p
+
+
+def _on_parameters(kernel_and_p: tuple[Any, Any], p: Any, model: Model, what: str) -> Any:
+    """The Jacobian kernel of ``(kernel, q)`` if it takes the rhs's parameter array
+    ``p``; a ValueError naming ``what`` needs one array otherwise."""
+    kernel, q = kernel_and_p
+    if q is not p and not np.array_equal(q, p):
+        raise ValueError(
+            f"{type(model).__name__}: its rhs and Jacobian kernels take different "
+            f"parameter arrays; {what} needs one."
+        )
+    return kernel
+
+
+def _bind_flow(model: Model, kernels: dict[str, Any]) -> str:
+    """The source that binds the interval integrator and the model's switching values
+    (added to ``kernels``), for a generated module with a flow."""
+    refuse_jumps(
+        model, "model", "the exact-flow step integrates one interval without the "
+        "branches of f; use sampledyn.simulate for its exact samples.",
+    )  # fmt: skip
+    sw, sp, io = switching(model)
+    kernels["_sw_kernel"] = sw
+    return _BIND_FLOW.format(sp=[float(v) for v in sp], io=[bool(v) for v in io])
+
+
+def _load(body: str, kernels: dict[str, Any]) -> Any:
+    """The generated module of ``body`` with the ``kernels`` bound by name."""
     lines = [kernel_import_line(k, alias) for alias, k in kernels.items()]
     if all(line is not None for line in lines):
         source = _HEADER + "\n".join(str(line) for line in lines) + "\n" + body
-        return load_generated_module(source, kind="discrete"), p
+        return load_generated_module(source, kind="discrete")
     # kernels that cannot be imported by name (closures, __main__): this process only
-    return load_generated_module(_HEADER + body, kind="discrete", globals_=kernels), p
+    return load_generated_module(_HEADER + body, kind="discrete", globals_=kernels)
+
+
+def _variational_module(model: Model) -> Any:
+    """The generated module of ``flow_jacobian(t, y, u, p, h, rtol, atol, out)``: the
+    flow of the variational equations (:data:`_VARIATIONAL`) over one interval, for
+    ZOH's linearisation. Needs the model's compiled df/dx and df/du on the rhs's
+    parameter array."""
+    rhs, p = model.kernel()
+    kernels = {"_rhs_kernel": rhs}
+    what = "the compiled variational equations"
+    kernels["_jac_kernel"] = _on_parameters(model.jacobian_kernel(), p, model, what)
+    kernels["_jac_u_kernel"] = _on_parameters(model.input_jacobian_kernel(), p, model, what)
+    body = _BIND + _BIND_JAC + _BIND_JAC_U + _bind_flow(model, kernels)
+    nx, nu = int(model.nx), int(model.nu)
+    body += _VARIATIONAL.format(nx=nx, nu=nu, nxx=nx * nx, nxu=nx * nu)
+    body += _FLOW.format(name="flow_jacobian", field="_variational_field")
+    return _load(body, kernels)
 
 
 def _finite(v: np.ndarray, name: str) -> None:
@@ -300,6 +383,7 @@ class DiscreteModel:
         self._mod: Any = None
         self._p: Any = None
         self._step: Any = None
+        self._variational: Any = None
 
     def __repr__(self) -> str:
         d = ", delay" if self.delay else ""
@@ -550,7 +634,9 @@ class DiscreteModel:
                 "point. Linearise at a state off the surface (on the side the motion is)."
             )
         applied = z[c:] if self.delay else u
-        A, B = self.step_data.linearize(self.model, float(t), z[:c], applied, self.h)
+        A, B = self.step_data.linearize(
+            self.model, float(t), z[:c], applied, self.h, solver=_CompiledFlows(self)
+        )
         if not self.delay:
             return np.asarray(A), np.asarray(B)
         Ad = np.zeros((self.nz, self.nz))
@@ -616,6 +702,57 @@ class DiscreteModel:
         from ._casadi import discrete_function
 
         return discrete_function(self)
+
+
+class _CompiledFlows:
+    """What a rule's ``linearize`` may ask of the compiled integrator (ZOH's): the
+    flow over one interval with u held (the compiled step) and its derivative, the
+    variational equations integrated with it (:func:`_variational_module`, compiled on
+    first use)."""
+
+    def __init__(self, dm: DiscreteModel) -> None:
+        self.dm = dm
+
+    def flow(self, t: float, x: np.ndarray, u: np.ndarray, h: float) -> np.ndarray:
+        """x(t + h), shape (nx,), from x(t) = x with u held (NaN if it fails)."""
+        dm = self.dm
+        dm._kernels()
+        out = np.empty(dm.nx)
+        dm._step(float(t), _array(x), _array(u), dm._p, float(h), out)
+        return out
+
+    def flow_jacobian(
+        self, t: float, x: np.ndarray, u: np.ndarray, h: float, rtol: float, atol: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(Phi, Gamma) = (d x(t + h) / d x(t), d x(t + h) / d u), shapes (nx, nx) and
+        (nx, nu), with the error control (rtol, atol) on the state and on every entry
+        of Phi and Gamma.
+
+        Raises
+        ------
+        IntegrationError
+            if the integration fails (a non-finite value, a step underflow).
+        """
+        dm = self.dm
+        if dm._variational is None:
+            dm._kernels()
+            dm._variational = compiled_kernel(_variational_module(dm.model), "flow_jacobian")
+        nx, nu = dm.nx, dm.nu
+        y0 = np.concatenate([_array(x), np.hstack([np.eye(nx), np.zeros((nx, nu))]).ravel()])
+        out = np.empty(y0.size)
+        dm._variational(float(t), y0, _array(u), dm._p, float(h), rtol, atol, out)
+        if not np.isfinite(out).all():
+            raise IntegrationError(
+                f"the variational equations of {dm.method.name}'s flow over [{t:g}, "
+                f"{t + h:g}] s failed from x = {x} with u = {u} (a non-finite value or a "
+                "step underflow): the flow has no derivative there to this tolerance."
+            )
+        M = out[nx:].reshape(nx, nx + nu)
+        return M[:, :nx].copy(), M[:, nx:].copy()
+
+
+def _array(v: Any) -> np.ndarray:
+    return np.ascontiguousarray(v, dtype=float)
 
 
 def compiled_kernel(module: Any, name: str) -> Any:

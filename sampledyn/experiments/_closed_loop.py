@@ -582,7 +582,7 @@ class ClosedLoopCells(CellKind):
         }
 
     def check_method(self, name: str) -> None:
-        check_rule(name)
+        check_rule(name, None)  # the grid's check names `methods`
 
     def method_order(self, name: str) -> int | None:
         return get_method(name).order

@@ -36,6 +36,7 @@ from .._discretize import discretize
 from .._discretize._model import check_rule
 from .._noise import add_noise
 from ..exceptions import SweepConfigError
+from ..methods import DiscreteTimeSystem, get_method
 from ._closed_loop import study_order
 from ._studies import StudyDefinition
 from .sweep import SweepConfig
@@ -121,7 +122,7 @@ class MultistepCells(PredictionCells):
     columns = (("err_eta", float), ("err_v", float), ("k", int), ("diverged", bool))
 
     def check_method(self, name: str) -> None:
-        check_rule(name)
+        check_rule(name, None)  # the grid's check names `methods`
 
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         K = options.get("horizon", 20)
@@ -137,7 +138,11 @@ class MultistepCells(PredictionCells):
         return {"horizon": K}
 
     def measures(self, config: Any) -> tuple[str, ...]:
-        return (*(f"k={k}" for k in range(1, config.options["horizon"] + 1)), _FREE_RUN)
+        """k = 1..K and the free run; refused (SweepConfigError naming `after`) when
+        the window starts before every prediction exists (:func:`check_window`)."""
+        K = config.options["horizon"]
+        check_window(config.after, config.h, config.methods, K)
+        return (*(f"k={k}" for k in range(1, K + 1)), _FREE_RUN)
 
     def compute(self, setup: Any, shared: SimResult, chunk: Any) -> ChunkResult:
         worker = worker_name()
@@ -183,6 +188,35 @@ class MultistepCells(PredictionCells):
                         }
                     )  # fmt: skip
         return ChunkResult(chunk.traj_key, shared.meta, rows)
+
+
+def check_window(after: float, hs: Sequence[float], methods: Sequence[str], K: int) -> None:
+    """Raise a SweepConfigError naming `after` if the window t >= after starts before
+    the K-step-ahead predictions of every rule exist: the prediction of sample n
+    starts from the data at n - K and the rule's history before it, so it needs
+    n >= K + history - 1 (history: the samples z keeps, 1 for a one-step rule, s for
+    AB_s). Without the check the rows before it are NaN (no prediction), which the
+    rms counted as a divergence of every rule at large k.
+    """
+    history, rule = max((_history(m), m) for m in methods)
+    for h in hs:
+        first = K + history - 1
+        start = int(round(after / h))
+        if start < first:
+            raise SweepConfigError(
+                "after",
+                f"`after` = {after:g} s starts the window at sample {start} of h = "
+                f"{h:g} s, before the {K}-step-ahead predictions exist (from sample "
+                f"{first}: {K} steps and {rule}'s {history} sample(s) of history); give "
+                f"`after` >= {first * h:g} s (or, in a sweep file, a smaller `horizon`).",
+            )
+
+
+def _history(method: str) -> int:
+    """The samples of history the rule's z keeps (1 for a one-step rule)."""
+    rule = get_method(method)
+    assert isinstance(rule, DiscreteTimeSystem)  # the others are refused by check_method
+    return max(lag for _, lag in rule.discrete_step.layout) + 1
 
 
 def _errors(dm: Any, meas: Any, exact: Any, start: int, measure: str) -> tuple[float, float]:

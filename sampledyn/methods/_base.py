@@ -226,7 +226,8 @@ class DiscreteStep(Protocol):
     ``step_f(t, z, f0, u, p, h, out)``, the step given f0 = f(t, x_n, u);
     ``source()``: numba source of ``step(t, z, u, p, h, out)``; ``blocks(f, t,
     blocks, u, h, solver)``: the step in vector arithmetic (numpy or CasADi);
-    ``linearize(model, t, z, u, h)``: (A_d, B_d), exact; ``steady_state(model, x,
+    ``linearize(model, t, z, u, h, solver)``: (A_d, B_d), exact (ZOH's asks the
+    ``solver`` for the flow's variational equations); ``steady_state(model, x,
     u, t)``: z of a constant history.
     """
 
@@ -250,9 +251,16 @@ class DiscreteStep(Protocol):
         ...
 
     def linearize(
-        self, model: Model, t: float, z: np.ndarray, u: np.ndarray, h: float
+        self,
+        model: Model,
+        t: float,
+        z: np.ndarray,
+        u: np.ndarray,
+        h: float,
+        solver: Any = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """``(A_d, B_d)`` of z+ = F(z, u) at ``(z, u)``, exact."""
+        """``(A_d, B_d)`` of z+ = F(z, u) at ``(z, u)``, exact (``solver``: what the
+        caller integrates with, as for ``blocks``)."""
         ...
 
     def steady_state(self, model: Model, x: np.ndarray, u: np.ndarray, t: float = 0.0) -> Any:

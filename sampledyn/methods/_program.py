@@ -339,12 +339,19 @@ class StepProgram:
     # ---- linearisation -------------------------------------------------------------
 
     def linearize(
-        self, model: Model, t: float, z: np.ndarray, u: np.ndarray, h: float
+        self,
+        model: Model,
+        t: float,
+        z: np.ndarray,
+        u: np.ndarray,
+        h: float,
+        solver: Any = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """(A_d, B_d) = (dF/dz, dF/du) at (z, u), shapes (nz, nz) and (nz, nu): forward
         mode through the stages with the model's exact df/dx = F_i and df/du = G_i at
         each stage (``dk_i = F_i dy_i``, ``dk_i/du = F_i dy_i/du + G_i``; an implicit
-        stage ``(I - h gamma F_i) dy_i = d point + h gamma G_i du``).
+        stage ``(I - h gamma F_i) dy_i = d point + h gamma G_i du``). ``solver`` is not
+        used (the stages are f evaluations).
 
         Raises
         ------

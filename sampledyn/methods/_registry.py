@@ -198,7 +198,8 @@ BUILT_IN: tuple[tuple[str, str, str, str, int | None, int | None], ...] = (
     (
         "ZOH", r"ZOH", "sampledyn.methods._exact:ExactHold",
         "exact zero-order hold: the flow over h with the input held (a discrete-time "
-        "system only; its linearisation is the matrix exponential)", None, None,
+        "system only; its linearisation the flow's derivative, the matrix exponential at "
+        "a trim)", None, None,
     ),
 )  # fmt: skip
 

@@ -415,7 +415,7 @@ def test_reproduce_closed_loop_and_multistep(tmp_path):
     assert "| rexrov | 0.5 | RK4 | 20/20 |" in text
     assert (out / "closed_loop.png").stat().st_size > 10_000
     out = tmp_path / "ms"
-    assert main(["reproduce", "multistep", "--T", "20", "--after", "5", "--seeds", "1",
+    assert main(["reproduce", "multistep", "--T", "30", "--after", "10", "--seeds", "1",
                  "--h", "0.5", "--methods", "E,RK4", "--out", str(out), "--no-progress",
                  "-q"]) == 0  # fmt: skip
     assert "| 0.5 | 0/0 | RK4 |" in (out / "multistep.md").read_text()
