@@ -1,4 +1,5 @@
-"""Every row of issue 14's performance table, measured now: one command, one table.
+"""Every row of the performance tables of issues 14 and 23, measured now: one command,
+one table.
 
 Run:  python benchmarks/run_all.py [--quick] [--only NAME ...] [--baseline DIR] [--out FILE]
 
@@ -11,8 +12,8 @@ machine changes few of them; a loaded one (load average above the number of core
 still does: run it on a quiet machine, and read the load column.
 
 * ``--quick`` shortens the slow benchmarks (peer table at T = 500 s, memory at
-  T = 5,000 s, sweep T = 120 s, one fig7 run): a smoke run, not the table's settings
-  (each row says its own size).
+  T = 5,000 s, sweep T = 120 s, one fig7 run and no fresh-install run): a smoke run,
+  not the table's settings (each row says its own size).
 * ``--only NAME ...``: only these benchmarks (names as in ``BENCHES``).
 * ``--baseline DIR``: also time the fixed costs of another checkout (e.g. a
   ``git archive`` of main) for a before/after line.
@@ -23,7 +24,11 @@ Benchmarks (the issue's rows they measure):
 ``fixed_costs``   ``python -c "import sampledyn"`` and the first real call,
                   ``python -c "import sampledyn as sd; sd.simulate"`` (fresh processes,
                   warm caches, best of 7 interleaved)
-``fig7``          ``bench_fig7.py``: ``reproduce fig7`` wall time and phases
+``kernels``       ``bench_kernels.py``: the vehicle's f against a straight-line reference
+                  kernel written in the same run (model.f, inside the integrator, the
+                  RK stages)
+``fig7``          ``bench_fig7.py``: ``reproduce fig7`` wall and CPU time, its f floor,
+                  cores used, the first run after a fresh install, the phases
 ``methods``       ``bench_methods.py --fig7-only``: T / AB4, RK4 / 4 f, AB4 M/s, AB4 / E
 ``models``        ``bench_models.py``: f from Python (single state, batch of one), the
                   closed-loop Jacobian
@@ -53,7 +58,8 @@ REPO = HERE.parent
 
 BENCHES: dict[str, tuple[list[str], list[str]]] = {
     # name: (arguments, arguments with --quick)
-    "fig7": (["bench_fig7.py", "--runs", "3"], ["bench_fig7.py", "--runs", "1"]),
+    "kernels": (["bench_kernels.py"], ["bench_kernels.py", "--rounds", "5"]),
+    "fig7": (["bench_fig7.py", "--runs", "3"], ["bench_fig7.py", "--runs", "1", "--no-first-run"]),
     "methods": (["bench_methods.py", "--fig7-only"], ["bench_methods.py", "--fig7-only"]),
     "models": (["bench_models.py"], ["bench_models.py"]),
     "rov": (["bench_rov.py"], ["bench_rov.py", "--rounds", "2"]),

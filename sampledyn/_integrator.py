@@ -51,6 +51,7 @@ no switching value says so).
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 from typing import Any
 
@@ -61,7 +62,7 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.extending import intrinsic
 
 from . import _dop853 as _dop
-from .models._base import JAC_SIG, JAC_TYPE, RHS_TYPE, RO1, RO2
+from .models._base import JAC_TYPE, RHS_TYPE, RO1, RO2
 from .models._jumps import decide, sliding_weight
 
 __all__ = [
@@ -78,7 +79,6 @@ __all__ = [
     "UNDERFLOW",
     "integrate",
     "integrate_intervals",
-    "no_gradient",
 ]
 
 _NS = _dop.N_STAGES
@@ -184,12 +184,6 @@ def _input_rate(U, S, t):  # pragma: no cover - compiled
         U[DU, j] = v
 
 
-@njit(JAC_SIG, cache=True)
-def no_gradient(t, x, u, p, out):  # pragma: no cover - compiled
-    """The gradient kernel of a model without jumps (never called)."""
-    out[:, :] = 0.0
-
-
 # ----------------------------------------------------------------- the two fields
 @njit(cache=True)
 def _normal_speeds(rhs, grad, q, pos, k, t, y, U, V, G):  # pragma: no cover - compiled
@@ -243,13 +237,13 @@ def _field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - com
     or, while sliding on surface ``mode[0]``, Filippov's sliding vector. (The steps
     test the mode themselves and call ``rhs`` directly: a call that passes this many
     arrays costs their reference counts, which would double the cost of a step.)"""
-    if mode[0] < 0:
+    if grad is None or mode[0] < 0:
         rhs(t, y, U[U_], q, out)
     else:
         _sliding_field(rhs, grad, q, mode, S, U, V, G, t, y, out)
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew, ytmp, u):  # pragma: no cover
     """Stages 1..11 given K[0] already; writes y_new. (ytmp, u: the rows V[YTMP] and
     U[U_], made once by the caller: a view made here would cost its reference count
@@ -264,7 +258,7 @@ def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew, ytmp, u):  # 
             ytmp[j] = y[j] + dt * acc
         ts = t + _C[s] * dt
         _input_at(U, S, ts)
-        if smooth:
+        if grad is None or smooth:
             rhs(ts, ytmp, u, q, K[s])
         else:
             _sliding_field(rhs, grad, q, mode, S, U, V, G, ts, ytmp, K[s])
@@ -281,7 +275,7 @@ def _events(sw, sp, rhs, grad, q, mode, U, V, G, S, t, y, g):  # pragma: no cove
     """The switching values at (t, y) (u in U[U_]) and, while sliding, the two normal
     speeds (g[n_sw], g[n_sw + 1]) whose zeros end the sliding."""
     sw(t, y, U[U_], sp, g)
-    if mode[0] >= 0:
+    if grad is not None and mode[0] >= 0:
         _input_rate(U, S, t)
         s_lo, s_hi = _normal_speeds(rhs, grad, q, mode[1], mode[0], t, y, U, V, G)
         n = g.shape[0] - 2
@@ -392,8 +386,9 @@ def _first_event(
     tau = dt
     found = -1
     probed = False
-    for k in range(n_sw + 2):
-        if k >= n_sw or sw_info[k, 0] >= 0:
+    # (without a gradient kernel there is no jump and no sliding speed: kinks only)
+    for k in range(n_sw if grad is None else n_sw + 2):
+        if grad is not None and (k >= n_sw or sw_info[k, 0] >= 0):
             if k == mode[0] or (k >= n_sw and mode[0] < 0):
                 continue  # the surface slid on; no sliding speeds without sliding
             # sigma_- > 0 and sigma_+ < 0 while sliding; a zero of either ends it
@@ -550,13 +545,13 @@ def _half_steps(
     (V[YF]), with the same field (branch or sliding vector) as the main run."""
     half = 0.5 * step
     _input_at(U, S, tc)
-    if mode[0] < 0:
+    if grad is None or mode[0] < 0:
         rhs(tc, yf, u, q, Kf[0])
     else:
         _sliding_field(rhs, grad, q, mode, S, U, V, G, tc, yf, Kf[0])
     _dop_stages(rhs, grad, q, mode, S, U, V, G, tc, yf, half, Kf, yfm, ytmp, u)
     _input_at(U, S, tc + half)
-    if mode[0] < 0:
+    if grad is None or mode[0] < 0:
         rhs(tc + half, yfm, u, q, Kf[0])
     else:
         _sliding_field(rhs, grad, q, mode, S, U, V, G, tc + half, yfm, Kf[0])
@@ -589,7 +584,7 @@ def _attempt(
         if tb - tn < 1e-9 * (tb - ta):
             tn = tb
         _input_at(U, S, tn)
-        if mode[0] < 0:
+        if grad is None or mode[0] < 0:
             rhs(tn, ynew, u, q, K[_NS])
         else:
             _sliding_field(rhs, grad, q, mode, S, U, V, G, tn, ynew, K[_NS])
@@ -615,7 +610,7 @@ def _attempt(
             dt = tau
             continue
         cut = found if found >= 0 else cut
-        if cut < 0 or cut >= n_sw or sw_info[cut, 0] < 0 or tries >= 40:
+        if grad is None or cut < 0 or cut >= n_sw or sw_info[cut, 0] < 0 or tries >= 40:
             return dt, tn, cut, -1
         # A jump: its crossing to rounding, by the secant method on the step's own end
         # values. (The interpolant places it to about 1e-9 of a step, which is enough
@@ -722,7 +717,9 @@ def _advance(
             int(st[S_FRESH]), y, ynew, ytmp, u, K, ga, gb,
         )  # fmt: skip
         if start >= 0:
-            status = _event(rhs, grad, q, mode, sw_info, S, U, V, G, start, tc, st, log)
+            # (a jump or a sliding speed at the step's start; kinks never start one)
+            if grad is not None:
+                status = _event(rhs, grad, q, mode, sw_info, S, U, V, G, start, tc, st, log)
             continue
         err, finite = _error(K, y, ynew, dt, rtol, atol)
         if not finite:
@@ -744,7 +741,10 @@ def _advance(
             st[S_FRESH] = -1.0
             dt_free = _new_step(err, step, dt_free, rejected)
             rejected = False
-            if cut >= 0 or mode[0] >= 0:
+            if grad is None:
+                if cut >= 0:  # a kink: only noted, for messages
+                    st[S_ERR_K] = cut
+            elif cut >= 0 or mode[0] >= 0:
                 status = _accept(
                     sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log
                 )
@@ -872,7 +872,7 @@ def _intervals(
             U[HOLD, j] = hold[n, j]
         if st[S_PHASE] == 0.0:
             _begin(V, X, restart, n, t[n], st)
-            if jumps:
+            if grad is not None and jumps:
                 status = _begin_jumps(
                     rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t[n], st, log
                 )
@@ -885,7 +885,7 @@ def _intervals(
             )  # fmt: skip
         if status == OK:
             _finish(X, steps, diff, V, st, n)
-            if jumps:
+            if grad is not None and jumps:
                 _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, t[n + 1], st)
     return status
 
@@ -895,11 +895,18 @@ _A2 = types.float64[:, ::1]
 _F1 = types.float64[::1]
 _B1 = types.Array(types.boolean, 1, "C", readonly=True)
 _I2 = types.Array(types.int64, 2, "C", readonly=True)
-_INTEGRATE_SIG = types.int64(
+# Two specialisations, each compiled on first use: ``grad`` a gradient kernel (a model
+# with jumps), or None (a model without: every branch on the sliding mode and the jump
+# surfaces is pruned when numba compiles, so neither the Filippov machinery nor its
+# helpers are compiled for the models that never need them).
+_INTEGRATE_ARGS = (
     RHS_TYPE, JAC_TYPE, _F1, RO1, RO2, RO1, RO2, RO2, RO2, _F, _F, types.boolean, types.int64,
     RHS_TYPE, RO1, _I2, _A2, types.int64[::1], _A2, _B1, _F1, _A2, _A2, types.int64,
     types.int64,
 )  # fmt: skip
+_INTEGRATE_SIG = types.int64(*_INTEGRATE_ARGS)
+_INTEGRATE_SMOOTH_SIG = types.int64(*(types.none if i == 1 else a
+                                      for i, a in enumerate(_INTEGRATE_ARGS)))  # fmt: skip
 
 
 def _integrate(
@@ -911,7 +918,8 @@ def _integrate(
     Parameters (shapes: nx states, nu inputs, n_sw switching values)
     ----------------------------------------------------------------
     rhs : f(t, x, u, q, out), the branch kernel (the model's rhs if it has no jump).
-    grad : rows (dg/dx, dg/dt, dg/du) of the switching values, out (n_sw, nx + 1 + nu).
+    grad : rows (dg/dx, dg/dt, dg/du) of the switching values, out (n_sw, nx + 1 + nu);
+        None for a model without jumps (the smooth specialisation).
     q : the parameters, then the side (-1, +1) of each jump; written (the sides).
     t : the nodes (sample times, and input breakpoints between them).
     hold, offset, amp, freq, phase : the input (held part per node, offset, sinusoids).
@@ -964,28 +972,40 @@ def _integrate(
 
 # numba warns that first-class function types are experimental when it types the
 # kernels passed down the helpers; they are what makes the integrator cacheable.
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-    integrate = njit(_INTEGRATE_SIG, cache=True)(_integrate)
+# One dispatcher per specialisation, each compiled for its one signature on first use
+# and then closed to others: called from Python with the kernels as numba dispatchers,
+# an open one would compile (and cache) a specialisation on their own types instead.
+integrate = njit(cache=True)(_integrate)
+integrate_smooth = njit(cache=True)(_integrate)
+_COMPILE_LOCK = threading.Lock()
 
 
-_INTERVALS_SIG = types.Tuple((types.int64, _F))(
-    RHS_TYPE, JAC_TYPE, RO1, RO1, RO1, RO2, RO1, RO2, RO2, RO2, _F, _F, types.boolean,
-    types.int64, types.int64, _F, RHS_TYPE, RO1, _B1, _A2, types.int64[::1], _A2, _B1,
-)  # fmt: skip
+def integrator(smooth: bool) -> Any:
+    """:func:`integrate` compiled (or loaded from numba's cache) for a model without
+    jumps (``smooth``: ``integrate_smooth``, called with ``grad=None``) or with them."""
+    disp, sig = (integrate_smooth, _INTEGRATE_SMOOTH_SIG) if smooth else (integrate, _INTEGRATE_SIG)
+    if sig.args not in disp.signatures:
+        with _COMPILE_LOCK, warnings.catch_warnings():
+            # numba warns that first-class function types are experimental when it
+            # types the kernels passed down the helpers; they are what makes the
+            # integrator cacheable.
+            warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
+            if sig.args not in disp.signatures:
+                disp.compile(sig)
+    disp.disable_compile()
+    return disp
 
 
-@njit(_INTERVALS_SIG, cache=True)
+@njit(cache=True)  # compiled where it is called (compiled code: the sampled loop)
 def integrate_intervals(
-    rhs, grad, p, t, x0, hold, offset, amp, freq, phase, rtol, atol, certify, n_start, n_stop,
+    rhs, p, t, x0, hold, offset, amp, freq, phase, rtol, atol, certify, n_start, n_stop,
     dt_init, sw, sp, sw_input_only, X, steps, diff, restart,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """:func:`integrate` for a model without jumps, intervals n_start..n_stop-1 in one
-    call, with the step budget of :data:`DEFAULT_MAX_STEPS` per interval; returns
-    (status, the next step proposal). For compiled callers (the sampled loop of
-    :func:`sampledyn.run_loop`), which pass :func:`no_gradient` as ``grad``
-    (a kernel referred to as a global would keep this function out of numba's disk
-    cache); ``x0`` is not read (X[n_start] is)."""
+    """:func:`integrate` for a model without jumps (its smooth specialisation),
+    intervals n_start..n_stop-1 in one call, with the step budget of
+    :data:`DEFAULT_MAX_STEPS` per interval; returns (status, the next step proposal).
+    For compiled callers (the sampled loop of :func:`sampledyn.run_loop`); ``x0`` is
+    not read (X[n_start] is)."""
     nx = X.shape[1]
     n_sw = sw_input_only.shape[0]
     st = np.zeros(STATE_SLOTS + n_sw)
@@ -1000,8 +1020,8 @@ def integrate_intervals(
     for k in range(n_sw):
         info[k, 0] = -1
         info[k, 1] = 0
-    status = integrate(
-        rhs, grad, p.copy(), t, hold, offset, amp, freq, phase, rtol, atol, certify, n_stop,
+    status = integrate_smooth(
+        rhs, None, p.copy(), t, hold, offset, amp, freq, phase, rtol, atol, certify, n_stop,
         sw, sp, info, X, steps, diff, restart, st, V, log, 1 << 62, DEFAULT_MAX_STEPS,
     )  # fmt: skip
     return status, st[S_DT]

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -47,6 +48,7 @@ __all__ = [
     "error_window",
     "local_errors",
     "sum_of_squares",
+    "sums_of_squares",
 ]
 
 ERROR_NORMS = ("rms", "max", "l2_over_n", "l2", "mean")
@@ -100,24 +102,63 @@ def sum_of_squares(errors: np.ndarray, components: Any = None) -> np.ndarray:
     errors : ndarray, shape (N, nx)
     components : None (all), a slice, or a sequence of int (in that order)
 
-    The order of the floating-point sum is fixed: over a slice (all components
-    included) it is ``numpy.einsum("ij,ij->i")`` of the rows; over an index set it is
-    the sum from the first index to the last, each square rounded, as ``einsum`` forms
-    it on the gathered columns (computed here without gathering them).
+    The order of the floating-point sum is fixed on every machine: from the first
+    selected component to the last, each square rounded (no fused multiply-add).
+    """
+    return sums_of_squares(errors, (components,))[0]
+
+
+def sums_of_squares(errors: np.ndarray, component_sets: Any) -> np.ndarray:
+    """:func:`sum_of_squares` for several component sets in one pass over the rows,
+    shape (len(component_sets), N); row k is bit for bit
+    ``sum_of_squares(errors, component_sets[k])``.
+
+    Raises
+    ------
+    ValueError
+        if ``errors`` is not 2-D or a set selects no component or one out of range.
     """
     e = np.asarray(errors, dtype=float)
-    if components is None or isinstance(components, slice):
-        part = e if components is None else e[:, components]
-        return np.einsum("ij,ij->i", part, part)
-    cols = np.asarray(components, dtype=np.int64).reshape(-1)
-    if e.ndim != 2 or cols.size == 0 or cols.min() < -e.shape[1] or cols.max() >= e.shape[1]:
-        return np.einsum("ij,ij->i", e[:, cols], e[:, cols])  # numpy's own errors
-    from ._sums import squares_in_order  # numba, loaded on first use
+    if e.ndim != 2:
+        raise ValueError(f"`errors` must have shape (N, nx), got {e.shape}.")
+    nx = e.shape[1]
+    cols = []
+    for comps in component_sets:
+        if comps is None or isinstance(comps, slice):
+            idx = np.arange(nx)[slice(None) if comps is None else comps]
+        else:
+            idx = np.asarray(comps, dtype=np.int64).reshape(-1)
+            if idx.size and (idx.min() < -nx or idx.max() >= nx):
+                raise ValueError(f"components {idx.tolist()} out of range for nx = {nx}.")
+            idx = np.where(idx < 0, idx + nx, idx)
+        if idx.size == 0:
+            raise ValueError(f"component set {comps!r} selects no component of {nx}.")
+        cols.append(idx)
+    from ._sums import squares_of_sets  # numba, loaded on first use
 
-    cols = np.where(cols < 0, cols + e.shape[1], cols)
-    out = np.empty(e.shape[0])
-    squares_in_order(e, cols, out)
+    cols_, starts, dest, parent, skip = _prefix_plan(tuple(tuple(int(i) for i in c) for c in cols))
+    out = np.empty((len(cols), e.shape[0]))
+    squares_of_sets(np.ascontiguousarray(e), cols_, starts, dest, parent, skip, out)
     return out
+
+
+@lru_cache(maxsize=64)
+def _prefix_plan(sets: tuple[tuple[int, ...], ...]) -> tuple[np.ndarray, ...]:
+    """The order :func:`sums_of_squares` forms the sets in: shortest first, each going
+    on from the longest earlier set it starts with. (cols, starts, dest, parent, skip)
+    of :func:`sampledyn._sums.squares_of_sets`."""
+    order = sorted(range(len(sets)), key=lambda k: len(sets[k]))
+    parent = np.full(len(sets), -1, dtype=np.int64)
+    skip = np.zeros(len(sets), dtype=np.int64)
+    for pos, k in enumerate(order):
+        for j in order[:pos]:
+            size = len(sets[j])
+            if skip[pos] < size <= len(sets[k]) and sets[k][:size] == sets[j]:
+                parent[pos], skip[pos] = j, size
+    starts = np.zeros(len(sets) + 1, dtype=np.int64)
+    starts[1:] = np.cumsum([len(sets[k]) for k in order])
+    cols = np.array([i for k in order for i in sets[k]], dtype=np.int64)
+    return cols, starts, np.array(order, dtype=np.int64), parent, skip
 
 
 def error_norm(
@@ -221,7 +262,23 @@ class ErrorWindow:
                 "errors", f"`errors` has {errors.shape[0]} samples, the window {self.n_samples}."
             )
         _check_kinds(kinds)
-        sq = sum_of_squares(errors[self.rows], components)  # NaN where a component is
+        return self._norms(sum_of_squares(errors[self.rows], components), kinds)
+
+    def norms_of_squares(
+        self, squares: np.ndarray, kinds: tuple[str, ...] = ERROR_NORMS
+    ) -> dict[str, float]:
+        """:meth:`norms` from the per-sample sums of squares of all N samples, shape
+        (N,) (:func:`sums_of_squares`: several component sets in one pass), the same
+        numbers bit for bit."""
+        if squares.shape != (self.n_samples,):
+            raise ValueError(
+                f"`squares` has shape {squares.shape}, the window {self.n_samples} samples."
+            )
+        _check_kinds(kinds)
+        return self._norms(squares[self.rows], kinds)
+
+    def _norms(self, sq: np.ndarray, kinds: tuple[str, ...]) -> dict[str, float]:
+        """The kinds from the sums of squares of the window's samples (NaN: none)."""
         span = self.span
         missing = np.isnan(sq)
         if missing.any():

@@ -107,25 +107,27 @@ def add_noise(
     groups = np.array([NOISE_REFERENCE.get(u, ("", 0.0))[0] for u in clean.state_units])
     seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     streams = dict(zip(("eta", "v"), seq.spawn(2), strict=True))
-    noise = np.zeros_like(clean.x)
+    from ._sums import add_scaled_draws  # numba, loaded on first use
+
+    x = np.ascontiguousarray(clean.x, dtype=float)
+    noisy = x.copy()  # the components without noise stay the samples
     for group, ss in streams.items():
         cols = np.flatnonzero(groups == group)
         if cols.size == 0:
             continue
         rng = np.random.default_rng(ss)
-        shape = (clean.x.shape[0], cols.size)
+        draws = np.empty((x.shape[0], cols.size))
+        # The draws of uniform(-1, 1) (-1 + 2 r, r in [0, 1)) and of standard_normal()
+        # / sqrt(3), scaled and added to the samples in one pass, without temporaries.
         if distribution == "uniform":
-            draw = rng.uniform(-1.0, 1.0, shape)
+            rng.random(out=draws)
+            add_scaled_draws(x, draws, cols, amp, -1.0, 2.0, noisy)
         else:
-            draw = rng.standard_normal(shape) / math.sqrt(3.0)
-        if cols[-1] - cols[0] + 1 == cols.size:  # adjacent columns: a view, no temporary
-            np.multiply(draw, amp[cols], out=noise[:, cols[0] : cols[-1] + 1])
-        else:
-            noise[:, cols] = draw * amp[cols]
-    # x + noise in the noise's memory, handed to the Trajectory without a copy
-    np.add(clean.x, noise, out=noise)
-    noise.setflags(write=False)
-    return clean.replace(x=noise, clean=clean)
+            rng.standard_normal(out=draws)
+            np.divide(draws, math.sqrt(3.0), out=draws)
+            add_scaled_draws(x, draws, cols, amp, 0.0, 1.0, noisy)
+    noisy.setflags(write=False)
+    return clean.replace(x=noisy, clean=clean)
 
 
 # ---------------------------------------------------------------------------------

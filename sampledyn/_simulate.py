@@ -27,7 +27,7 @@ import numpy as np
 
 from . import _checks as checks
 from . import _integrator as _int
-from ._integrator import DEFAULT_MAX_STEPS, integrate_intervals, no_gradient
+from ._integrator import DEFAULT_MAX_STEPS, integrate_intervals
 from ._trajectory import Certificate, SlidingInterval, Trajectory
 from .exceptions import ArgumentError, IntegrationError, JumpRefused
 from .models import Model
@@ -38,7 +38,6 @@ from .signals import Signal
 __all__ = [
     "DEFAULT_MAX_STEPS",
     "integrate_intervals",
-    "no_gradient",
     "simulate",
     "switching",
 ]
@@ -357,7 +356,7 @@ class _Integration:
         get = getattr(model, "jump_kernel", None)
         jumps = get() if get is not None else None
         if jumps is None:
-            self.rhs, self.grad = rhs, _int.no_gradient
+            self.rhs, self.grad = rhs, None  # the integrator's smooth specialisation
             self.q = np.array(p, dtype=float)
             info = np.full((n_sw, 2), -1, dtype=np.int64)
             info[:, 1] = 0
@@ -389,7 +388,7 @@ class _Integration:
         )  # fmt: skip
         while True:
             start = time.perf_counter()
-            status = _int.integrate(
+            status = _int.integrator(self.grad is None)(
                 self.rhs, self.grad, self.q, *args, float(self.rtol), float(self.atol),
                 bool(self.certify), t.shape[0] - 1, self.sw, self.sp, self.info, X, steps,
                 diff, restart, st, self.W, self.log, self.budget, self.max_steps,

@@ -30,10 +30,10 @@ from numba import njit, types
 
 from .. import _checks as checks
 from .._noise import add_noise
-from .._simulate import integrate_intervals, no_gradient, switching
+from .._simulate import integrate_intervals, switching
 from .._trajectory import Trajectory
 from ..exceptions import ArgumentError, EnvelopeExceeded, IntegrationError
-from ..models._base import JAC_TYPE, RHS_TYPE, RO1, RO2, readonly
+from ..models._base import RHS_TYPE, RO1, RO2, readonly
 from ..models._jumps import refuse_jumps
 from ._model import DiscreteModel
 
@@ -45,7 +45,7 @@ _A2 = types.float64[:, ::1]
 _B1 = types.Array(types.boolean, 1, "C", readonly=True)
 _I1 = types.Array(types.int64, 1, "C", readonly=True)
 _LOOP_SIG = types.Tuple((types.int64, _F, types.int64))(
-    RHS_TYPE, JAC_TYPE, RO1, RHS_TYPE, RO1, _B1,  # plant rhs, no gradient, p, sw, sp, input_only
+    RHS_TYPE, RO1, RHS_TYPE, RO1, _B1,  # plant rhs, p, sw, sp, input_only
     RHS_TYPE, RO1,  # design model rhs, p (f-blocks of z)
     RO1, _A2, RO2, _A2, _A2, _A2,  # t, X, noise, Y (measured), command, applied
     RO2, RO2, RO2, _I1, _I1, RO1, RO1,  # K, z_ref, u_ref, kinds, lags, u_lo, u_hi
@@ -101,7 +101,7 @@ def _outside(X, n, x_lo, x_hi):
 
 @njit(_LOOP_SIG, cache=True)
 def _loop(
-    rhs, grad, p, sw, sp, sw_io, drhs, dp, t, X, noise, Y, cmd, U,
+    rhs, p, sw, sp, sw_io, drhs, dp, t, X, noise, Y, cmd, U,
     K, z_ref, u_ref, kinds, lags, u_lo, u_hi,
     law_on, delay, n_start, n_stop, rtol, atol, dt, steps, diff, restart, z1, z2, x_lo, x_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
@@ -124,7 +124,7 @@ def _loop(
         for i in range(nu):
             U[n, i] = cmd[n - 1, i] if delay and n >= 1 else cmd[n, i]
         status, dt = integrate_intervals(
-            rhs, grad, p, t, X[n], U, z1, z2, z2, z2, rtol, atol, False, n, n + 1, dt,
+            rhs, p, t, X[n], U, z1, z2, z2, z2, rtol, atol, False, n, n + 1, dt,
             sw, sp, sw_io, X, steps, diff, restart,
         )  # fmt: skip
         if status != 0:
@@ -413,7 +413,7 @@ def run_loop(
         kinds = lags = np.zeros(0, dtype=np.int64)
         lo, hi = np.full(nu, -np.inf), np.full(nu, np.inf)
     args = (
-        rhs, no_gradient, readonly(p), sw, readonly(np.asarray(sp, dtype=float)),
+        rhs, readonly(p), sw, readonly(np.asarray(sp, dtype=float)),
         _frozen(np.asarray(sw_io, dtype=np.bool_)), drhs, readonly(np.asarray(dp, dtype=float)),
         readonly(t), X, readonly(noise_arr), Y, cmd, U,
         readonly(gain), readonly(z_ref), readonly(u_ref), _frozen(kinds), _frozen(lags),

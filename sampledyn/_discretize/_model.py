@@ -68,7 +68,6 @@ jac = njit(inline="always", error_model="numpy")(_jac_kernel.py_func)
 # kernel and switching function; NaN where it fails.
 _BIND_FLOW = """
 from sampledyn._simulate import integrate_intervals as _integrate_intervals
-from sampledyn._simulate import no_gradient as _no_gradient
 
 # The integrator takes the model's kernels as function pointers, which numba's disk
 # cache cannot keep: this module compiles in each process.
@@ -103,7 +102,7 @@ def {name}(t, x, u, p, h, rtol, atol, out):
     diff = np.empty((1, nx))
     restart = np.ones(2, dtype=np.bool_)
     status, _ = _integrate_intervals(
-        {field}, _no_gradient, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol,
+        {field}, p, nodes, X[0], U, offset, waves, waves, waves, rtol, atol,
         False, 0, 1,
         h, _sw_kernel, _SW_P, _SW_IO, X, steps, diff, restart,
     )

@@ -241,8 +241,9 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
             "Read a vehicle log (columns t, the 12 states and the thruster rpm, units in "
             "the header like x[m], phi[deg], n1[rpm], or a --mapping file), validate it "
             "(time as logged, dropped records, NaN policy, units, angle wrap-around), then "
-            "print the one-step local errors of each method. ROS bags and ArduSub DataFlash "
-            "logs are read through a --mapping file (docs/logs.md). Every choice made is "
+            "print the one-step local errors of each method. ROS bags are read through a "
+            "--mapping file; ArduSub logs (DataFlash, tlog, BlueOS) with the defaults of "
+            "examples/ardusub_*.toml when none is given (docs/logs.md). Every choice made is "
             "printed. Nothing is written unless --out is given."
         ),
     )
@@ -304,8 +305,9 @@ def add_parser(sub: Any, parents: list[argparse.ArgumentParser]) -> None:
     ev.add_argument(
         "--mapping",
         default=None,
-        help="TOML file: column names and units (CSV/Parquet), topics and frames (ROS bag), "
-        "messages and thruster curve (ArduSub); see docs/logs.md",
+        help="TOML file: column names and units (CSV/Parquet), topics and frames (ROS bag, "
+        "needed), messages and thruster curve (ArduSub; default: every key's default); "
+        "see docs/logs.md",
     )
     ev.add_argument(
         "--irregular",

@@ -153,6 +153,44 @@ def _is_terminal(stream: Any) -> bool:
         return False
 
 
+# What a first run after an install compiles, measured: `reproduce fig7` on the
+# 2-core development machine, about 13 CPU s of compiling (benchmarks/bench_fig7.py,
+# row "first run"; docs/benchmarks.md).
+COMPILE_ESTIMATE = "about 15 s"
+
+
+def compile_notice(command: str, stream: Any) -> Callable[[], None]:
+    """Say once on ``stream`` (any stream: a terminal, a pipe, a CI log) that numba has
+    started compiling, the moment it starts: the first run after an install, or the
+    first with a new model, compiles its kernels before any output. Returns the
+    function that stops listening. Nothing is said when the kernels load from the
+    cache."""
+    from numba.core import event  # numba's compile events (documented in its event API)
+
+    class _Notice(event.Listener):
+        said = False
+
+        def on_start(self, ev: Any) -> None:
+            if not self.said:
+                self.said = True
+                try:
+                    stream.write(
+                        f"sampledyn {command}: compiling the numerical kernels, once for this "
+                        f"installation ({COMPILE_ESTIMATE}; later runs load them from the "
+                        "cache in under a second)...\n"
+                    )
+                    stream.flush()
+                except (OSError, ValueError):
+                    pass  # a closed stream: nothing to tell
+
+        def on_end(self, ev: Any) -> None:
+            return None
+
+    listener = _Notice()
+    event.register("numba:compile", listener)
+    return lambda: event.unregister("numba:compile", listener)
+
+
 @contextmanager
 def _memory(args: argparse.Namespace) -> Iterator[None]:
     """``--max-memory`` for this command and its worker processes."""
@@ -227,12 +265,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     quiet = bool(getattr(args, "quiet", False))
-    if not quiet and args.command not in _QUICK and _is_terminal(sys.stderr):
+    announce = not quiet and args.command not in _QUICK
+    if announce and _is_terminal(sys.stderr):
         sys.stderr.write(
             f"sampledyn {args.command}: loading the numerical kernels (the first run after an "
-            "install compiles them, about 15 s)...\n"
+            f"install compiles them, {COMPILE_ESTIMATE})...\n"
         )
         sys.stderr.flush()
+    stop_notice = compile_notice(args.command, sys.stderr) if announce else None
     try:
         with _sigterm_as_interrupt(), _one_line_warnings(), _memory(args):
             result = args.func(args)
@@ -253,6 +293,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         status, text = classify(exc, _options(parser, args.command))
         _fail(status, text, debug)
+    finally:
+        if stop_notice is not None:
+            stop_notice()
     return int(result or 0)
 
 

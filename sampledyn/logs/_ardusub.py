@@ -1,7 +1,8 @@
 """ArduSub DataFlash logs (``.bin``, through ``pymavlink``; ``pip install
 'sampledyn[ardusub]'``).
 
-A mapping file (TOML) names the messages; every key has a default::
+A mapping file (TOML) names the messages; every key has a default, and a log
+given without a mapping file is read with these (a note says so)::
 
     [ardusub]
     states = "XKF1"   # EKF3 state (NKF1 for EKF2): attitude, NED velocity and position
@@ -48,7 +49,7 @@ from ..models import Model
 from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
-from ._streams import mapping_section, nearest
+from ._streams import default_mapping_note, mapping_section, nearest
 
 __all__ = ["read_dataflash"]
 
@@ -284,4 +285,5 @@ def read_dataflash(path: Path, model: Model, *, mapping: Any = None, **options: 
         status_name=f"{status}.SS",
         notes=notes,
     )
-    return autopilot_log(streams, model, cfg, thr, **options)
+    defaulted = default_mapping_note(mapping, "ardusub")
+    return autopilot_log(streams, model, cfg, thr, defaulted, **options)

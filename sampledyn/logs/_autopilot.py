@@ -212,15 +212,16 @@ def autopilot_log(
     model: Model,
     cfg: Mapping[str, Any],
     thr: Mapping[str, Any],
+    mapping_notes: tuple[str, ...] = (),
     **options: Any,
 ) -> LogData:
     """The validated log of ``model`` from an ArduSub log's streams (module docstring);
     ``cfg`` is the mapping's section, ``thr`` its thruster table; ``options`` as
-    :func:`read_log`."""
+    :func:`read_log`; ``mapping_notes`` go first among the notes."""
     unit, direction, voltage = thruster_options(
         {"voltage": "logged", **thr}, model.nu, "[thrusters]", THRUSTER_EXTRA, ()
     )
-    notes = [f"{s.kind}", *s.notes]
+    notes = [f"{s.kind}", *mapping_notes, *s.notes]
     notes += _armed(s, cfg)
     notes += _modes(s)
     unmeasured, est = _estimator(s, cfg)

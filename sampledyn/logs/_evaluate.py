@@ -34,6 +34,7 @@ from ._units import split_header
 
 __all__ = [
     "MAX_H_RATE",
+    "MIN_H_RATE",
     "MIN_H_S",
     "ROW_KEYS",
     "LogEvaluation",
@@ -49,6 +50,15 @@ __all__ = [
 #: coarsely is most likely a log whose time unit is wrong: ms read as s multiplies
 #: h / tau by 1000, s read as min by 60 (the example log: h / tau = 0.43).
 MAX_H_RATE = 10.0
+
+#: Smallest h / tau at which :func:`evaluate_log` does not warn. A consistent rule's
+#: prediction differs from the hold (x_n+1 = x_n) by h f = about h / tau of the motion
+#: within one time constant, and two rules of order >= 1 differ from each other by
+#: about (h / tau)^2 / 2 of it: below h / tau = 1e-3 that is under 5e-7, beneath any
+#: sensor's resolution, so the table cannot tell the rules apart. Real vehicle logs
+#: (10..1000 Hz, tau >= 0.1 s) lie above it; a log in s labelled ms lies 1000 times
+#: below its true h / tau (the example log: 0.43 -> 4.3e-4).
+MIN_H_RATE = 1e-3
 
 #: Smallest sampling period (s) :func:`evaluate_log` accepts: no vehicle log records
 #: its states at more than 1 MHz, so a shorter step is a time unit read wrong (seconds
@@ -201,8 +211,8 @@ def _legend(ev: LogEvaluation) -> list[str]:
             )
     else:
         out.append(f"floor: rms of the noise alone (no * mark: the table's norm is {ev.norm})")
-    if ev.stability:
-        h = ev.stability[0].h
+    if ev.stability and any(r["stable"] is False and not r["failed"] for r in ev.rows):
+        h = ev.stability[0].h  # the legend of the "!" marks, printed where a row has one
         out.append(
             f"stable h: the rule's largest stable step (s) along the log (|R(h lambda)| <= 1 "
             f"for the eigenvalues of df/dx at every sample); ! the log's step {h:.4g} s "
@@ -380,6 +390,24 @@ def _check_period(
                 "check the time column's unit and the vehicle.",
                 "check the time stamps and the vehicle.",
             ),
+        )
+    if h < MIN_H_RATE * tau:
+        warnings.warn(
+            f"{data.source}: sampling period h = {h:.6g} s (time column "
+            f"{data.time_column!r} read in {data.time_unit}) is only {h / tau:.3g} times the "
+            f"model's fastest time constant tau = {tau:.3g} s, below h/tau = {MIN_H_RATE:g}: "
+            "the rules differ from each other by about (h/tau)^2/2 of the motion within "
+            "tau, beneath any sensor's resolution, so the table cannot tell them from one "
+            "another or from the hold; "
+            + _unit_hint(
+                data,
+                MIN_H_RATE * tau,
+                limit * tau,
+                "check the time column's unit.",
+                "check the time stamps.",
+            ),
+            UserWarning,
+            stacklevel=2,
         )
     return (
         f"h / tau = {h / tau:.3g}, tau = {tau:.3g} s the model's fastest time constant on "

@@ -19,7 +19,7 @@ from typing import Any
 from ..exceptions import LogFormatError
 from ..models import Model
 
-__all__ = ["LOG_FORMATS", "LogFormat", "detect_format"]
+__all__ = ["FORMATS_RECOGNISED", "LOG_FORMATS", "LogFormat", "detect_format"]
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _DATAFLASH_MAGIC = b"\xa3\x95"
@@ -157,6 +157,17 @@ LOG_FORMATS: tuple[LogFormat, ...] = (
     LogFormat(
         "csv", "table, one row per sample (CSV)", lambda p: p.is_file(), "._read:read_table_log"
     ),
+)
+
+
+#: How :func:`detect_format` tells the formats apart, for the message of a file that is
+#: none of them (in the order tried).
+FORMATS_RECOGNISED = (
+    "ArduSub DataFlash .bin (starts with the bytes 0xA3 0x95), ROS 2 bag (a folder with "
+    "metadata.yaml or a .db3/.mcap, a .db3 file, or an MCAP file of CDR messages), "
+    "BlueOS MCAP (MCAP magic 0x89 'MCAP0', MAVLink JSON on mavlink/out), ROS 1 bag "
+    "(suffix .bag), MAVLink .tlog (suffix .tlog, or a MAVLink frame 0xFE/0xFD after an "
+    "8-byte time), Parquet (suffix .parquet/.pq), CSV (any other file: UTF-8 text)"
 )
 
 

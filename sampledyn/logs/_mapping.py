@@ -18,14 +18,20 @@ __all__ = ["check_keys", "load_toml", "model_for_mapping", "table_mapping"]
 
 
 def load_toml(mapping: Any) -> dict[str, Any]:
-    """A mapping given as a dict, or the TOML file at a path; {} for None."""
+    """A mapping given as a dict, or the TOML file at a path; {} for None.
+
+    Raises
+    ------
+    FileNotFoundError, IsADirectoryError
+        for a path with no file, or a folder (:func:`sampledyn._files.regular_file`).
+    LogFormatError
+        for a file that is not UTF-8 TOML.
+    """
     if mapping is None:
         return {}
     if isinstance(mapping, Mapping):
         return dict(mapping)
-    path = Path(mapping)
-    if not path.exists():
-        raise LogFormatError("mapping", f"`mapping`: no file {str(path)!r}.")
+    path = Path(mapping)  # missing or a folder: FileNotFoundError, IsADirectoryError
     try:  # a regular file, bounded, UTF-8, TOML nested a few levels
         return parse_toml(read_text(path, "mapping file"), f"`mapping` {str(path)!r}")
     except FileContentError as exc:

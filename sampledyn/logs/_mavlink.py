@@ -47,7 +47,7 @@ from ..models import Model
 from ._autopilot import AUTOPILOT_KEYS, AutopilotStreams, autopilot_log, check_thrusters
 from ._frames import rotation_zyx
 from ._read import LogData
-from ._streams import mapping_section, nearest
+from ._streams import default_mapping_note, mapping_section, nearest
 
 __all__ = ["read_blueos", "read_tlog"]
 
@@ -322,7 +322,8 @@ def read_tlog(path: Path, model: Model, *, mapping: Any = None, **options: Any) 
     s = _streams(
         _tlog_records(path, path.name), model, cfg, path.name, "MAVLink telemetry log (.tlog)"
     )
-    return autopilot_log(s, model, cfg, thr, **options)
+    defaulted = default_mapping_note(mapping, "mavlink")
+    return autopilot_log(s, model, cfg, thr, defaulted, **options)
 
 
 def read_blueos(path: Path, model: Model, *, mapping: Any = None, **options: Any) -> LogData:
@@ -334,4 +335,5 @@ def read_blueos(path: Path, model: Model, *, mapping: Any = None, **options: Any
     s = _streams(
         _blueos_records(path, path.name), model, cfg, path.name, "BlueOS MCAP log (mavlink/out)"
     )
-    return autopilot_log(s, model, cfg, thr, **options)
+    defaulted = default_mapping_note(mapping, "mavlink")
+    return autopilot_log(s, model, cfg, thr, defaulted, **options)

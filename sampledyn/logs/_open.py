@@ -38,7 +38,10 @@ def read_log(
         an ``.mcap`` file with or without ``metadata.yaml``) or a ROS 1 ``.bag``
         (extra ``sampledyn[ros]``); an ArduSub DataFlash log or a MAVLink ``.tlog``
         (extra ``sampledyn[ardusub]``); a BlueOS MCAP log (extra
-        ``sampledyn[blueos]``). All but tables need a ``mapping`` (``docs/logs.md``).
+        ``sampledyn[blueos]``). Bags need a ``mapping`` (``docs/logs.md``); the
+        ArduSub logs are read with their mapping's defaults without one (a note says
+        so). Bytes of none of these formats are refused naming how each is
+        recognised (:data:`sampledyn.logs._formats.FORMATS_RECOGNISED`).
     model : Model
         The vehicle the log is of; its state and input names and units are expected.
     mapping : path or mapping, optional
@@ -65,8 +68,8 @@ def read_log(
     ------
     LogFormatError (a ValueError)
         naming the column, option or the first bad row.
-    FileNotFoundError
-        if there is no file at ``path``.
+    FileNotFoundError, IsADirectoryError
+        if there is no file at ``path``, or ``mapping`` names no file or a folder.
     OSError
         (errno EINVAL) for a FIFO, a device or a socket.
     """

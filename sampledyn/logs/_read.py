@@ -178,13 +178,28 @@ def _columns(
         out[names[0]] = found[hit[0]]
     if missing and missing_inputs == len(missing):
         given = [out[a[0]][0] for a in inputs if a[0] in out]
+        used = {col for col, _ in out.values()}
+        other = [c for n, (c, _) in found.items() if c not in used and _NUMBERED.match(n)]
+        shown = ", ".join(repr(c) for c in other[:8]) + (", ..." if len(other) > 8 else "")
         raise LogFormatError(
             "columns",
             f"{src}: missing input column {missing[0]}"
             + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
-            + f": {_count_inputs(model)}, the log has {len(given)} input column"
-            + f"{'s' if len(given) != 1 else ''} ({', '.join(repr(c) for c in given)}). Use "
-            "a vehicle with as many thrusters as the log, or add the missing columns.",
+            + f": {_count_inputs(model)}, the log has "
+            + (
+                f"{len(given)} input column{'s' if len(given) != 1 else ''} "
+                f"({', '.join(repr(c) for c in given)})"
+                if given
+                else "none of them"
+            )
+            + (
+                f"; its {len(other)} numbered column{'s' if len(other) != 1 else ''} "
+                f"({shown}) look like the inputs of another model"
+                if other
+                else ""
+            )
+            + ". Use a model whose inputs the log holds (a vehicle with as many thrusters "
+            "as the log), add the missing columns, or name them in a mapping file.",
         )
     if missing:
         have = ", ".join(repr(str(c)) for c in columns)
@@ -228,6 +243,8 @@ def _count_inputs(model: Model) -> str:
     who = f"vehicle {model.name!r}" if hasattr(model, "name") else "the model"
     if n_thr is not None and not getattr(model, "wrench_input", False):
         return f"{who} has {n_thr} thruster{'s' if n_thr != 1 else ''} (inputs {listed})"
+    units = [f"{n} [{u}]" for n, u in zip(names, model.input_units, strict=True)]
+    listed = f"{units[0]}..{units[-1]}" if len(units) > 2 else ", ".join(units)
     return f"{who} has {len(names)} input{'s' if len(names) != 1 else ''} ({listed})"
 
 
@@ -653,6 +670,35 @@ def _refuse_repeated_columns(path: Path) -> None:
         )
 
 
+def _said(path: Path, exc: Exception) -> bool:
+    """``exc`` says what is wrong as it is: a LogFormatError, or a file error about
+    another file than the log (its mapping file)."""
+    if isinstance(exc, LogFormatError):
+        return True
+    return isinstance(exc, OSError) and exc.filename is not None and str(exc.filename) != str(path)
+
+
+def _unreadable(path: Path, exc: Exception) -> LogFormatError:
+    """The error of a table that cannot be read: an empty file, or bytes that are no
+    text, said as such; else what pandas or the system said."""
+    import pandas as pd
+
+    from ._formats import FORMATS_RECOGNISED
+
+    if isinstance(exc, pd.errors.EmptyDataError):
+        return LogFormatError(
+            "data", f"{str(path)!r} is empty (no header, no rows): no log to read."
+        )
+    if isinstance(exc, UnicodeDecodeError):
+        return LogFormatError(
+            "data",
+            f"{str(path)!r} is no log of a format read: it is not UTF-8 text (byte "
+            f"{exc.start}: {exc.object[exc.start : exc.start + 1]!r}), so no CSV, and none "
+            f"of the binary formats recognised; formats read: {FORMATS_RECOGNISED}.",
+        )
+    return LogFormatError("data", f"cannot read {str(path)!r}: {exc}")
+
+
 def read_table(path: Path, model: Model, mapping: Any) -> tuple[Any, bool]:
     """A CSV or Parquet file as a DataFrame; a CSV's time column is read as text, so
     that decimal stamps (1700000000.123456789) are read exactly."""
@@ -667,9 +713,9 @@ def read_table(path: Path, model: Model, mapping: Any) -> tuple[Any, bool]:
         tcol = _columns(list(header.columns), model, mapping, path.name)[0]["t"][0]
         return pd.read_csv(path, skipinitialspace=True, dtype={tcol: str}), True
     except (ValueError, OSError, pd.errors.ParserError) as exc:
-        if isinstance(exc, LogFormatError):
+        if _said(path, exc):
             raise
-        raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
+        raise _unreadable(path, exc) from exc
 
 
 def _count_rows(path: Path) -> int:
@@ -716,6 +762,6 @@ def read_table_log(path: Path, model: Model, *, mapping: Any = None, **options: 
         return log_from_chunks(chunks, capacity, columns, model, source=path.name,
                                mapping=mapping, csv=csv, **options)  # fmt: skip
     except (ValueError, OSError, pd.errors.ParserError) as exc:
-        if isinstance(exc, LogFormatError):
+        if _said(path, exc):
             raise
-        raise LogFormatError("data", f"cannot read {str(path)!r}: {exc}") from exc
+        raise _unreadable(path, exc) from exc

@@ -13,6 +13,7 @@ ROS bag and ArduSub DataFlash readers.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -29,7 +30,9 @@ __all__ = [
     "SURFACE_DEPTH",
     "THRUSTER_KEYS",
     "VEHICLE_STATES",
+    "MAPPING_EXAMPLES",
     "check_vehicle",
+    "default_mapping_note",
     "drop_before_first_command",
     "hold_last",
     "longest_stretch",
@@ -62,17 +65,70 @@ def check_vehicle(model: Model, src: str) -> None:
         )
 
 
+#: Section of a mapping file -> (the logs it is for, the example mapping files).
+MAPPING_EXAMPLES: dict[str, tuple[str, str]] = {
+    "ardusub": ("an ArduSub DataFlash log (.bin)", "examples/ardusub_dataflash.toml"),
+    "mavlink": ("a MAVLink .tlog or a BlueOS MCAP log", "examples/ardusub_mavlink.toml"),
+    "ros": (
+        "a ROS bag",
+        "examples/ros2_bluerov2_heavy.toml, examples/ros1_mavros_bluerov2_heavy.toml",
+    ),
+    "columns": ("a CSV/Parquet table", "docs/logs.md"),
+}
+
+#: The sections whose every key has a default (the autopilot logs: their message names
+#: and PWM servo outputs are fixed by ArduSub), read as such without a mapping file.
+_DEFAULTS: dict[str, dict[str, Any]] = {
+    "ardusub": {"thrusters": {"unit": "pwm"}},
+    "mavlink": {"thrusters": {"unit": "pwm"}},
+}
+
+
+def _mapping_name(mapping: Any) -> str:
+    return "the mapping" if isinstance(mapping, Mapping) else f"mapping file {str(mapping)!r}"
+
+
+def default_mapping_note(mapping: Any, section: str) -> tuple[str, ...]:
+    """The note of a log read with the defaults of ``[section]`` (no mapping given)."""
+    if load_toml(mapping):
+        return ()
+    return (
+        f"no mapping file: every key of [{section}] at its default (docs/logs.md; "
+        f"{MAPPING_EXAMPLES[section][1]} lists them, to copy and change)",
+    )
+
+
 def mapping_section(
     model: Model, mapping: Any, section: str, keys: Sequence[str], src: str, what: str
 ) -> tuple[dict[str, Any], Mapping[str, Any]]:
     """The ``[section]`` of a bag or DataFlash mapping file and its input table
     (``thrusters``, or ``wrench`` where ``keys`` allows it), every key checked (the
-    model must be a 6-DoF vehicle whose input is the one the table gives)."""
+    model must be a 6-DoF vehicle whose input is the one the table gives). Without a
+    mapping, the sections of :data:`_DEFAULTS` take every key's default; the others
+    need a file."""
     check_vehicle(model, src)
     raw = load_toml(mapping)
+    if not raw and section in _DEFAULTS:
+        raw = {section: copy.deepcopy(_DEFAULTS[section])}
     if not raw:
-        raise LogFormatError("mapping", f"{src}: {what} needs a mapping file (see docs/logs.md).")
-    check_keys(raw, [section], f"the top level (this mapping has [{section}])", [section])
+        raise LogFormatError(
+            "mapping",
+            f"{src}: {what} needs a mapping file naming its topics and thrusters; copy and "
+            f"change {MAPPING_EXAMPLES[section][1]} (docs/logs.md).",
+        )
+    if section not in raw:
+        other = [k for k in raw if k in MAPPING_EXAMPLES]
+        if other:
+            raise LogFormatError(
+                "mapping",
+                f"{src}: {_mapping_name(mapping)} has [{other[0]}], which is for "
+                f"{MAPPING_EXAMPLES[other[0]][0]}; {what} needs [{section}] (see "
+                f"{MAPPING_EXAMPLES[section][1]}).",
+            )
+    check_keys(
+        raw, [section], f"the top level of {_mapping_name(mapping)} ({what} needs [{section}])",
+        [section],
+    )  # fmt: skip
     cfg = raw[section]
     if not isinstance(cfg, Mapping):
         raise LogFormatError("mapping", f"mapping file: [{section}] must be a table.")

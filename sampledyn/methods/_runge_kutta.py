@@ -24,6 +24,7 @@ from numba import njit
 
 from .._trajectory import Trajectory
 from ..models import Model
+from ..models._base import readonly
 from ._base import (
     FixedRule,
     check_gain_args,
@@ -246,8 +247,9 @@ class RungeKutta(FixedRule):
         inputs = {
             c: stage_inputs(data, signal, c, None if h is not None else rows) for c in set(cs)
         }
-        a = [np.array([float(v) for v in tab.a[i][:i]]) for i in range(tab.stages)]
-        b = np.array([float(v) for v in tab.b])
+        a = [readonly([float(v) for v in tab.a[i][:i]]) for i in range(tab.stages)]
+        b = readonly([float(v) for v in tab.b])
+        x0, rows = readonly(x0), readonly(rows)  # views of these stay read-only: no copies
         # k_1 = f(t_n, x_n, u_n) at c_1 = 0 (t_n + 0 h_n is t_n, the input the sampled one)
         at_samples = sample_f(model, data, cache) if cache is not None and cs[0] == 0.0 else None
         out = np.empty(data.x.shape)
@@ -259,12 +261,11 @@ class RungeKutta(FixedRule):
             ks: list[np.ndarray] = []
             for i in range(tab.stages):
                 if i == 0 and at_samples is not None:
-                    ks.append(np.array(at_samples[blk]))  # writable, C-ordered
+                    ks.append(readonly(at_samples[blk]))  # read only: not copied
                     continue
-                xi = _combine(xb, hb, a[i], tuple(ks), pb, False) if a[i].any() else xb
-                k = model.f(times[cs[i]][blk], xi, inputs[cs[i]][blk])
-                ks.append(np.require(k, dtype=float, requirements=("C", "W")))
-            _combine(xb, hb, b, tuple(ks), out[1 + lo : 1 + blk.stop], True)
+                xi = _combine(xb, hb, a[i], ks, pb, False, tab.stages) if a[i].any() else xb
+                ks.append(readonly(model.f(times[cs[i]][blk], xi, inputs[cs[i]][blk])))
+            _combine(xb, hb, b, ks, out[1 + lo : 1 + blk.stop], True, tab.stages)
         return out
 
     def noise_gain(self, h: float, lipschitz: Any, ratio: float = 1.0) -> np.ndarray:
@@ -352,14 +353,21 @@ def _combine(
     x0: np.ndarray,
     h: np.ndarray,
     coeffs: np.ndarray,
-    ks: tuple[np.ndarray, ...],
+    ks: list[np.ndarray],
     out: np.ndarray,
     scale_sum: bool,
+    stages: int,
 ) -> np.ndarray:
     """One compiled pass over the intervals: ``x0 + sum_j (h_n c_j) k_j`` (stage points;
     zero c_j skipped) or, with ``scale_sum``, ``x0 + h_n sum_j c_j k_j`` (the
-    increment), written into ``out``, shape (N - 1, nx), and returned."""
-    _combine_rows(x0, h, coeffs, ks, out, scale_sum)
+    increment), written into ``out``, shape (N - 1, nx), and returned.
+
+    Every array read-only (:func:`~sampledyn.models.readonly`); ``ks`` (the first
+    len(coeffs) stages) goes to the compiled pass as a tuple of ``stages`` arrays,
+    padded with its first: one specialisation per number of stages, not one per stage
+    and per array flag."""
+    padded = (*ks, *(ks[0],) * (stages - len(ks)))
+    _combine_rows(x0, h, coeffs, padded, out, scale_sum)
     return out
 
 

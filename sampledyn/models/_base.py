@@ -92,7 +92,7 @@ def _batch_matrix(jac: Any, t: Any, x: Any, u: Any, p: Any, rows: int, cols: int
     return _compiled(_batch_matrix_any, _BATCH_MATRIX_ANY_SIG)(jac, t, x, u, p, rows, cols)
 
 
-@njit(RHS_SIG, cache=True)
+@njit(cache=True)  # compiled for RHS_SIG on first use (switch_kernel())
 def index_switch(t, x, u, sp, out):  # pragma: no cover - compiled
     """Switching values picked from the state and input: sp = [ns, i..., nu, j...]."""
     ns = int(sp[0])
@@ -364,7 +364,7 @@ class CompiledModel:
         inputs = tuple(int(j) for j in getattr(self, "kink_inputs", ()))
         sp = np.array([len(states), *states, len(inputs), *inputs], dtype=float)
         input_only = np.array([False] * len(states) + [True] * len(inputs), dtype=np.bool_)
-        return index_switch, sp, input_only
+        return _compiled(index_switch, RHS_SIG), sp, input_only
 
     @property
     def default_x0(self) -> np.ndarray:

@@ -30,7 +30,7 @@ from numba.extending import intrinsic
 
 from ..exceptions import JacobianUnavailableError
 from . import _codegen
-from ._base import JAC_BLOCK_ROWS, RHS_SIG, CompiledModel, LinearForm, _as_batch
+from ._base import JAC_BLOCK_ROWS, RHS_SIG, CompiledModel, LinearForm, _as_batch, _compiled
 from ._jumps import refuse_jumps
 
 __all__ = ["ClosedLoop", "FeedbackLaw", "LinearFeedback", "stack_buffer"]
@@ -68,7 +68,7 @@ def stack_buffer(typingctx: Any, size: Any) -> Any:
     return retty(size), codegen
 
 
-@njit(RHS_SIG, cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")  # compiled for RHS_SIG on first use (kernel())
 def linear_feedback(t, x, r, q, out):  # pragma: no cover - compiled
     """u = r + K x with K stored by its non-zero columns: q = [m, j_1..j_m, K[:, j]
     row-major (nu x m)]. Terms are added in increasing column order."""
@@ -151,7 +151,7 @@ class LinearFeedback(FeedbackLaw):
         self._eye.setflags(write=False)
 
     def kernel(self) -> tuple[Any, np.ndarray]:
-        return linear_feedback, self._q
+        return _compiled(linear_feedback, RHS_SIG), self._q
 
     def state_jacobian(self, t: Any, x: Any, r: Any) -> np.ndarray:
         """K for every state, shape (N, nu, nx) (read-only: K is constant)."""

@@ -204,14 +204,16 @@ def check_pitch(
     """
     if type(theta) is float and math.isfinite(theta):
         return _pitch_verdict(abs(math.cos(theta)), theta, 0, tolerance_deg, limit_deg)
-    theta = np.asarray(theta, dtype=float).ravel()
+    theta = np.asarray(theta, dtype=float)
+    if theta.ndim != 1:  # (a column of a batch of states is 1-D already: not copied)
+        theta = theta.ravel()
     if theta.size == 0:
         return False, 0.0
     # Every |theta| clearly below both thresholds (the usual case, e.g. each stage of a
     # prediction): |cos| is smallest at the largest |theta| (cos is even and decreasing
     # on [0, 90 deg]), so that one angle decides, without an array of cosines.
     # NaN or inf make the comparison false and take the full check below.
-    big = float(np.max(np.abs(theta)))
+    big = max(float(theta.max()), -float(theta.min()))
     clear = min(90.0 - tolerance_deg, 90.0 if limit_deg is None else limit_deg)
     if big < math.radians(clear) - 1e-6:
         return _pitch_verdict(abs(math.cos(big)), big, 0, tolerance_deg, limit_deg)

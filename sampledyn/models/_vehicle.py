@@ -48,7 +48,7 @@ import numpy as np
 
 from .. import _checks as checks
 from ..exceptions import VehicleParameterError
-from ._base import CompiledModel, LinearForm, _as_batch, readonly
+from ._base import JAC_BLOCK_ROWS, CompiledModel, LinearForm, _as_batch, in_row_blocks, readonly
 from ._rigid_body import (
     check_pitch,
     coriolis_matrix,
@@ -57,14 +57,7 @@ from ._rigid_body import (
     rotation_jacobian,
     thruster_allocation,
 )
-from ._vehicle_kernels import (
-    batch_input_jac,
-    pack_params,
-    vehicle_input_jac,
-    vehicle_jac,
-    vehicle_rhs,
-    vehicle_switch,
-)
+from ._vehicle_kernels import VehicleKernels, pack_params
 
 __all__ = ["SYMMETRY_RTOL", "AsymmetricPair", "Vehicle", "symmetrized"]
 
@@ -458,6 +451,7 @@ class Vehicle(CompiledModel):
     _Minv: np.ndarray = field(init=False, repr=False, compare=False)
     _alloc: np.ndarray = field(init=False, repr=False, compare=False)
     _p: np.ndarray = field(init=False, repr=False, compare=False)
+    _kernels: VehicleKernels = field(init=False, repr=False, compare=False)
 
     param_units = PARAM_UNITS
 
@@ -530,6 +524,7 @@ class Vehicle(CompiledModel):
         put(self, "_Minv", minv)
         put(self, "_alloc", alloc)
         put(self, "_p", p)
+        put(self, "_kernels", VehicleKernels.of(p))
         put(self, "n_thrusters", n_thr)
         put(self, "weight", W)
         put(self, "buoyancy", Bf)
@@ -836,14 +831,17 @@ class Vehicle(CompiledModel):
 
     # -------------------------------------------------------------- compiled model
     def kernel(self) -> tuple[Any, np.ndarray]:
-        return vehicle_rhs, self._p
+        """The compiled f of one state, generated for this vehicle's sparsity pattern
+        (:mod:`sampledyn.models._vehicle_kernels`), and ``p``."""
+        return self._kernels.get("rhs"), self._p
 
     def jacobian_kernel(self) -> tuple[Any, np.ndarray]:
-        return vehicle_jac, self._p
+        """The compiled df/dx of one state (generated, as :meth:`kernel`) and ``p``."""
+        return self._kernels.get("jac"), self._p
 
     def input_jacobian_kernel(self) -> tuple[Any, np.ndarray]:
         """The compiled df/du of one state (:meth:`input_jacobian`) and ``p``."""
-        return vehicle_input_jac, self._p
+        return self._kernels.get("jac_u"), self._p
 
     def check_states(self, x: Any) -> None:
         """Raise if some |theta| is within ``pitch_tolerance_deg`` of 90 deg, warn
@@ -862,7 +860,7 @@ class Vehicle(CompiledModel):
         input_only = np.array(
             [False] * 6 + [not self.thruster_lag] * nt + [True] * (2 * nt), dtype=bool
         )
-        return vehicle_switch, self._p, input_only
+        return self._kernels.get("sw"), self._p, input_only
 
     def _pitch_guard(self, theta: Any, stacklevel: int = 3) -> None:
         past, worst = check_pitch(theta, self.pitch_tolerance_deg, self.pitch_limit_deg)
@@ -948,9 +946,12 @@ class Vehicle(CompiledModel):
             For wrong shapes, or some |theta| within ``pitch_tolerance_deg`` of 90 deg.
         """
         self._guard_x(x)
-        _, xx, uu, single = _as_batch(t, x, u, self.nx, self.nu)
+        tt, xx, uu, single = _as_batch(t, x, u, self.nx, self.nu)
         check_pitch(xx[:, 4], self.pitch_tolerance_deg)
-        out = batch_input_jac(readonly(xx), readonly(uu), readonly(self._p))
+        batch = self._kernels.get("batch_jac_u")
+        out = in_row_blocks(
+            batch, readonly(tt), readonly(xx), readonly(uu), self._p, JAC_BLOCK_ROWS
+        )
         return out[0] if single else out
 
     def jac_v_v(self, t: Any, x: Any, u: Any) -> np.ndarray:

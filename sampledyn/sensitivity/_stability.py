@@ -101,8 +101,12 @@ class StabilityLimit:
         when = "" if t is None or self.sample < 0 else f", t = {float(t[self.sample]):.6g} s"
         mode = f"lambda = {lam.real:.4g}{lam.imag:+.4g}j 1/s (sample {self.sample}{when})"
         if self.h_stable == 0.0:
+            # a real negative lambda is damped: what limits the step is the rule's region
+            kind = "undamped" if abs(lam.real) <= _GROWING * abs(lam) else "damped"
             where = (
-                f"{self.method} is unstable at every step on the undamped mode {mode}: "
+                f"{self.method} is unstable at every step on the {kind} mode {mode}: its "
+                "stability region leaves the ray h lambda before h |lambda| = 1e-6 (the "
+                "scan's first point), so no practical step is short enough; "
                 f"|R(h lambda)| = {self.amplification:.6g} at h = {self.h:.4g} s"
             )
         else:
@@ -115,7 +119,8 @@ class StabilityLimit:
             f"{where}. One prediction carries that factor once (its noise gain grows "
             "with it); a rollout or a controller designed on the rule's discrete-time "
             "model grows by it at every step. A rule stable at this h (T is stable on "
-            "every damped mode) or a shorter step avoids it."
+            f"every damped mode){'' if self.h_stable == 0.0 else ' or a shorter step'} "
+            "avoids it."
         )
 
 

@@ -113,6 +113,20 @@ def test_missing_store_and_data_files(tmp_path, capsys):
         ["evaluate", "--data", str(tmp_path / "no.csv"), "--vehicle", "bluerov2_heavy"], capsys
     )
     assert status == EXIT_FILE and "--data" in _one_line(err) and "no.csv" in err
+    assert f"--data {tmp_path / 'no.csv'}: no log there" in err  # the trial: no colon
+
+
+def test_a_missing_or_folder_mapping_is_a_file_error_naming_the_option(tmp_path, capsys):
+    """The new-user trial: a missing --mapping was status 3 ("no file"), a folder 4."""
+    log = Path(__file__).resolve().parents[2] / "examples" / "rov_log.csv"
+    base = ["evaluate", "--data", str(log), "--vehicle", "bluerov2_heavy"]
+    status, err = _fails([*base, "--mapping", str(tmp_path / "nope.toml")], capsys)
+    line = _one_line(err)
+    assert status == EXIT_FILE and line.startswith("sampledyn: error: --mapping "), line
+    assert "nope.toml: no mapping file there" in line, line
+    status, err = _fails([*base, "--mapping", str(tmp_path)], capsys)
+    line = _one_line(err)
+    assert status == EXIT_FILE and "--mapping" in line and "is a folder" in line, line
 
 
 def _store_with_rows(path: Path, n: int) -> Path:

@@ -117,6 +117,17 @@ def test_evaluate_out_over_an_input_is_refused_before_work(tmp_path, capsys, whi
     assert _snapshot(tmp_path) == before
 
 
+def test_evaluate_out_over_its_log_by_a_relative_name_is_refused(tmp_path, capsys, monkeypatch):
+    """The new-user trial: `--data good.csv --out ./good.csv` overwrote the log."""
+    shutil.copy(EXAMPLE_LOG, tmp_path / "good.csv")
+    monkeypatch.chdir(tmp_path)
+    before = _snapshot(tmp_path)
+    args = ["evaluate", "--data", "good.csv", "--vehicle", "bluerov2_heavy", "--out"]
+    assert _status([*args, "./good.csv"]) == EXIT_USAGE
+    assert "would overwrite the input --data 'good.csv'" in _one_line(capsys)
+    assert _snapshot(tmp_path) == before
+
+
 def test_evaluate_out_inside_a_bag_folder_is_refused(tmp_path, capsys):
     bag = tmp_path / "bag"
     bag.mkdir()

@@ -27,14 +27,17 @@ def test_local_errors_sign_is_measurement_minus_prediction():
 
 
 def _old_error_norms(errors, t, kinds, after=None, components=None, where=None):
-    """The error norms as they were computed before the window (main 04f6bc2): the
-    reference the windowed computation must equal bit for bit."""
+    """The error norms as they were computed before the window (main 04f6bc2), with the
+    per-sample sum of squares in its documented order (first component to last, each
+    square rounded): the reference the windowed computation must equal bit for bit."""
     from sampledyn._trajectory import uniform_grid
 
     e = np.asarray(errors, dtype=float)
     if components is not None:
         e = e[:, components]
-    sq = np.einsum("ij,ij->i", e, e)
+    sq = e[:, 0] * e[:, 0]
+    for c in range(1, e.shape[1]):
+        sq = sq + e[:, c] * e[:, c]
     keep = ~np.isnan(sq)
     if where is not None:
         keep &= where
@@ -88,24 +91,25 @@ def test_error_norms_on_a_window_equal_the_former_ones_bit_for_bit(grid):
 
 
 def test_sum_of_squares_orders():
-    """Index sets: the sum from the first index on, each square rounded (what numpy's
-    einsum gives on the gathered columns); slices: einsum of the rows."""
-    from sampledyn._local_errors import sum_of_squares
+    """Index sets and slices alike: the sum from the first component on, each square
+    rounded (the same on every machine: no fused multiply-add, no pairwise order);
+    several sets in one pass give the same bits as each alone."""
+    from sampledyn._local_errors import sum_of_squares, sums_of_squares
 
     rng = np.random.default_rng(5)
     e = rng.standard_normal((20000, 12)) * np.exp(rng.uniform(-30, 30, (20000, 12)))
     e[7, 2] = np.nan
-    for idx in ([0, 1, 2, 6, 7, 8], [11, 0, 5], [4]):
+    sets = ([0, 1, 2, 6, 7, 8], [11, 0, 5], [4], slice(0, 6), slice(3, 12), None, [0, 1])
+    together = sums_of_squares(e, sets)
+    for k, comps in enumerate(sets):
+        idx = comps if isinstance(comps, list) else np.arange(12)[comps or slice(None)]
         by_hand = e[:, idx[0]] * e[:, idx[0]]
         for c in idx[1:]:
             by_hand = by_hand + e[:, c] * e[:, c]
-        assert np.array_equal(sum_of_squares(e, idx), by_hand, equal_nan=True)
-        g = e[:, idx]
-        assert np.array_equal(sum_of_squares(e, idx), np.einsum("ij,ij->i", g, g), equal_nan=True)
-    for sl in (slice(0, 6), slice(3, 12), None):
-        part = e if sl is None else e[:, sl]
-        assert np.array_equal(sum_of_squares(e, sl), np.einsum("ij,ij->i", part, part),
-                              equal_nan=True)  # fmt: skip
+        assert np.array_equal(sum_of_squares(e, comps), by_hand, equal_nan=True)
+        assert np.array_equal(together[k], by_hand, equal_nan=True)
+    with pytest.raises(ValueError, match="selects no component"):
+        sum_of_squares(e, slice(12, 12))
 
 
 def test_local_errors_into_the_prediction(rexrov_data):

@@ -15,6 +15,7 @@ against uninterrupted) the numbers agree bit for bit (tests/experiments/test_eng
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import sqlite3
@@ -58,9 +59,11 @@ _CLOSED_LOOP = Tol(1e-6, 1e-12, "plant integrated to rtol 1e-10 with error contr
 # of "diverged").
 _MULTISTEP = Tol(1e-9, 1e-12, "k-step rollouts; Tustin's Newton stops at 1e-12 (1 + |x|)")
 # A diverged rollout (rms >= 1e3, up to 1e97 here) runs on an unstable mode of the
-# rule's discrete model, which grows a rounding difference step after step (2.3e-9
-# relative with the lowest supported numpy/scipy against the fixture).
-_DIVERGED = Tol(1e-6, 1e-12, "a diverged rollout grows rounding with its unstable mode")
+# rule's discrete model, which grows a rounding difference step after step: with the
+# lowest supported numpy/scipy/numba its rms differed from this fixture by 2.9e-5 to
+# 0.92 relative (86 cells, E's rows from k = 13 on). Its digits carry no information;
+# what reproduces, and is compared exactly, is the ``diverged`` flag (rms >= 1e3).
+_DIVERGED = Tol(math.inf, 0.0, "a diverged rollout's rms is rounding grown by its unstable mode")
 _TOL = {
     "closed_loop": _CLOSED_LOOP,
     "multistep": lambda row, column: _DIVERGED if row["diverged"] == "True" else _MULTISTEP,

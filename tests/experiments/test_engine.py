@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _numbers import AUV_CERTIFICATE_BOUND, assert_rows_close, auv_tolerance, read_rows
-from _sweep_helpers import kill_when_stored
+from _sweep_helpers import kill_when_stored, write_sweep
 
 import sampledyn as sd
 from sampledyn.cli import main
@@ -289,3 +289,28 @@ def test_cli_advise_takes_the_input(tmp_path, capsys):
         main([*args, "--input", "chirp"])
     assert exc.value.code == EXIT_BAD_VALUE
     assert "--input" in capsys.readouterr().err
+
+
+def test_warm_up_of_the_cells_runs_the_first_group_on_a_short_case(tmp_path, monkeypatch):
+    """What a local pool compiles beside the first simulation: the chunk's first group,
+    with the chunk's rules and norms, on 20 samples of the chunk's own period (taken from
+    the simulation's period, as the real samples are), errors counted from t = 0."""
+    from sampledyn.experiments.sweep import _prediction
+
+    study = plan_study(load_config(write_sweep(tmp_path / "s.toml", h="[0.01, 0.02]")))
+    chunk = next(c for c in study.chunks(study.cells, 2) if c.h == 0.02)
+    sim = study.sims[chunk.sim_key]
+    assert sim.h == 0.01  # h = 0.02 takes every second sample of it
+    seen = []
+    monkeypatch.setattr(_prediction, "compute_chunk", lambda *a: seen.append(a))
+    study.setup.kind.warm_up_cells(study.setup, sim, chunk)
+    ((short, shared, part),) = seen
+    assert short.after == 0.0 and short.T == pytest.approx(20 * 2 * 0.01)
+    assert shared.traj.n_samples == 21 and np.allclose(np.diff(shared.traj.t), 0.02)
+    assert part.groups == chunk.groups[:1] and part.traj_key == chunk.traj_key
+
+    def fails(*_a):
+        raise RuntimeError("not a cell's failure")
+
+    monkeypatch.setattr(_prediction, "compute_chunk", fails)
+    study.setup.kind.warm_up_cells(study.setup, sim, chunk)  # left to the cells to report

@@ -287,7 +287,9 @@ def test_full_disk_on_a_small_tmpfs(tmp_path):
                 timeout=300,
             )
             assert res.returncode == EXIT_DISK, res.stderr
-            assert res.stderr.strip().count("\n") == 0 and "no space left" in res.stderr
+            # one line, besides the compile notice of a run that compiled (cli._main)
+            err = [ln for ln in res.stderr.splitlines() if "compiling the numerical" not in ln]
+            assert len(err) == 1 and "no space left" in err[0]
             with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
                 assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
                 kept = conn.execute("SELECT COUNT(*) FROM cells").fetchone()[0]

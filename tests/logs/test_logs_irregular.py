@@ -116,13 +116,15 @@ def test_every_format_is_detected_by_the_table(tmp_path):
 
 def test_the_tlog_is_no_longer_read_as_csv_text(tmp_path):
     """Before the format table a .tlog went to the CSV reader ('utf-8' codec can't
-    decode); now a mapping is asked for, as for every binary log."""
+    decode); now it is read as MAVLink, with the [mavlink] defaults when no mapping
+    is given (a note says so)."""
     from _ardusub_fixtures import TelemetryRun
 
     pytest.importorskip("pymavlink")
     log = TelemetryRun().write_tlog(tmp_path / "a.tlog")
-    with pytest.raises(LogFormatError, match=r"a .tlog needs a mapping file"):
-        read_log(log, sd.models.load_vehicle("bluerov2_heavy"))
+    data = read_log(log, sd.models.load_vehicle("bluerov2_heavy"))
+    assert data.notes[0] == "MAVLink telemetry log (.tlog)"
+    assert "every key of [mavlink] at its default" in data.notes[1]
 
 
 @pytest.mark.slow

@@ -31,7 +31,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from typing import Any
 
 from ... import _checks as checks
-from ._cells import Chunk, Setup, SimPlan, compute_cells, prepare_shared
+from ._cells import Chunk, Setup, SimPlan, compute_cells, prepare_shared, warm_up_cells
 from ._compute import ChunkResult, SimResult
 
 __all__ = [
@@ -193,12 +193,18 @@ def local_processes(
     tasks: Iterator[Chunk],
     *,
     in_flight: int,
+    warm_up: bool = False,
 ) -> Iterator[ChunkResult]:
     """Run on a pool of local processes (:func:`start_pool`), at most ``in_flight``
     tasks pulled and not finished. Each simulation runs on one worker when the first
     task of one of its trajectories arrives (its tasks then go out with their
     trajectory's samples), and the next simulation of ``sims`` (in plan order) runs
-    meanwhile, so no worker waits for exact samples between trajectories.
+    meanwhile, so no worker waits for exact samples between trajectories. With
+    ``warm_up`` (a pool of two workers or more) another worker compiles the cells'
+    kernels on a short case while the first simulation runs
+    (:meth:`~sampledyn.experiments.sweep._cells.CellKind.warm_up_cells`), so a first
+    run after an install compiles them once, not once per worker, and not after the
+    exact samples.
     """
     order = {key: i for i, key in enumerate(sims)}
     keys = list(sims)
@@ -208,6 +214,7 @@ def local_processes(
     running: dict[Future[Any], str] = {}
     exhausted = False
     last = ""
+    warming: list[Future[Any]] = []  # the cells compiled on a short case (not waited for)
 
     def start(key: str) -> None:
         if key not in bundles and key not in simulating.values():
@@ -228,6 +235,8 @@ def local_processes(
                 submit(chunk)
                 continue
             start(last)
+            if warm_up and not warming:
+                warming.append(pool.submit(warm_up_cells, setup, sims[last], chunk))
             parked.setdefault(last, []).append(chunk)
             if order[last] + 1 < len(keys):
                 start(keys[order[last] + 1])  # one simulation ahead

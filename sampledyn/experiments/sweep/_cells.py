@@ -262,6 +262,13 @@ class CellKind:
         inherit the compiled code). Failures are left to the cells to report."""
         return None
 
+    def warm_up_cells(self, setup: Setup, sim: SimPlan, chunk: Chunk) -> None:
+        """Compile what the cells of ``chunk`` need, on a short case, in a local worker
+        while another simulates the exact samples: the compiled kernels go to numba's
+        disk cache, from which the other workers load them instead of compiling them
+        too. Nothing is returned or stored; failures are left to the cells to report."""
+        return None
+
     def decode(self, row: dict[str, Any]) -> dict[str, Any]:
         """A stored row's values in their types: NULL (or missing) as NaN for a float,
         None otherwise; an int stored for a bool as the bool."""
@@ -349,6 +356,13 @@ def prepare_shared(setup: Setup, sim: SimPlan) -> dict[str, Any]:
     the exact samples, for a prediction study). What every backend runs once per
     simulation."""
     return setup.kind.prepare(setup, sim)
+
+
+def warm_up_cells(setup: Setup, sim: SimPlan, chunk: Chunk) -> None:
+    """The study's kind compiles the kernels of ``chunk``'s cells on a short case
+    (:meth:`CellKind.warm_up_cells`). What a local pool runs beside the first
+    simulation."""
+    setup.kind.warm_up_cells(setup, sim, chunk)
 
 
 def compute_cells(setup: Setup, shared: Any, chunk: Chunk) -> Any:

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._local_errors import ERROR_NORMS, ErrorWindow, error_window, sum_of_squares
+from ..._local_errors import ERROR_NORMS, ErrorWindow, error_window, sums_of_squares
 from ..._noise import NOISE_REFERENCE
 from ...methods import Predictor, available_methods, get_method
 from ...models import Model
@@ -356,18 +356,18 @@ def _empty(comps: Any) -> bool:
 
 
 def _counts(
-    err: np.ndarray, t: np.ndarray, spec: NormSpec, after: float, groups: Mapping[str, Any],
-    where: np.ndarray | None,
+    n: int, t: np.ndarray, spec: NormSpec, after: float, groups: Mapping[str, Any],
+    where: np.ndarray | None, squares: Callable[[Any], np.ndarray],
 ) -> dict[str, float]:  # fmt: skip
-    keep = np.ones(err.shape[0], dtype=bool) if where is None else where.copy()
+    keep = np.ones(n, dtype=bool) if where is None else where.copy()
     keep &= t >= after - 1e-9 * max(1.0, abs(after))
     over = {}
     for name, limit in zip(("eta", "v"), spec.kind_args, strict=True):
         comps = groups[name]
         if _empty(comps):
-            over[name] = np.zeros(err.shape[0], dtype=bool)
+            over[name] = np.zeros(n, dtype=bool)
             continue
-        sq = sum_of_squares(err, comps)
+        sq = squares(comps)
         keep &= ~np.isnan(sq)
         over[name] = np.sqrt(np.where(np.isnan(sq), 0.0, sq)) > limit
     if not keep.any():
@@ -377,6 +377,38 @@ def _counts(
         "v": float((over["v"] & keep).sum()),
         "all": float(((over["eta"] | over["v"]) & keep).sum()),
     }
+
+
+def _noise(noise_err: Callable[[], np.ndarray] | None) -> np.ndarray:
+    if noise_err is None:
+        raise ValueError("a noise: norm needs the undisturbed local errors.")
+    return noise_err()
+
+
+def _set_key(comps: Any) -> tuple[int, ...]:
+    return tuple(range(comps.start, comps.stop)) if isinstance(comps, slice) else tuple(comps)
+
+
+class _Squares:
+    """The per-sample sums of squares of one error array over every component set the
+    norms ask for, all computed in one pass over the samples on first use
+    (:func:`sampledyn.errors.sums_of_squares`)."""
+
+    def __init__(self, data: Callable[[], np.ndarray]) -> None:
+        self._data = data
+        self._sets: dict[tuple[int, ...], Any] = {}
+        self._sq: dict[tuple[int, ...], np.ndarray] | None = None
+
+    def want(self, comps: Any) -> None:
+        if not _empty(comps):
+            self._sets.setdefault(_set_key(comps), comps)
+
+    def __call__(self, comps: Any) -> np.ndarray:
+        if self._sq is None:
+            keys = list(self._sets)
+            rows = sums_of_squares(self._data(), [self._sets[k] for k in keys])
+            self._sq = dict(zip(keys, rows, strict=True))
+        return self._sq[_set_key(comps)]
 
 
 def measure(
@@ -423,26 +455,24 @@ def measure(
     for spec in specs:
         key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args)
         batches.setdefault(key, []).append(spec)
-    noise_values: np.ndarray | None = None
     windows = {} if windows is None else windows  # the samples the norms count
-    for batch in batches.values():
-        first = batch[0]
-        if first.part == "noise":
-            if noise_values is None:
-                if noise_err is None:
-                    raise ValueError("a noise: norm needs the undisturbed local errors.")
-                noise_values = noise_err()
-            data = noise_values
-        else:
-            data = err
+    squares = {"err": _Squares(lambda: err), "noise": _Squares(lambda: _noise(noise_err))}
+    uses = {}
+    for key, batch in batches.items():
         use = groups
-        if first.units is not None:
-            use = _unit_groups(tuple(state_units), tuple(first.units))
+        if batch[0].units is not None:
+            use = _unit_groups(tuple(state_units), tuple(batch[0].units))
+        uses[key] = use
+        for comps in use.values():
+            squares["noise" if batch[0].part == "noise" else "err"].want(comps)
+    for key, batch in batches.items():
+        first = batch[0]
+        sq = squares["noise" if first.part == "noise" else "err"]
+        use = uses[key]
         where = masks.get(first)
         try:
             if first.counts:
-                values = _counts(data, t, first, after, use, where)
-                out[first] = (values, "")
+                out[first] = (_counts(err.shape[0], t, first, after, use, where, sq), "")
                 continue
             kinds = tuple(dict.fromkeys(s.kind for s in batch))
             wkey = (id(t), id(where), after)
@@ -453,7 +483,7 @@ def measure(
                 name: (
                     dict.fromkeys(kinds, math.nan)
                     if _empty(comps)
-                    else window.norms(data, kinds, comps)
+                    else window.norms_of_squares(sq(comps), kinds)
                 )
                 for name, comps in use.items()
             }

@@ -8,6 +8,7 @@ one noise pair and seed, measured by one norm (:func:`._compute.compute_chunk`).
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from typing import Any
 
@@ -46,6 +47,20 @@ class PredictionCells(CellKind):
                 setup.model.f(traj.t, traj.x, traj.u)
             except (ValueError, ArithmeticError, RuntimeError):
                 pass  # a real failure is reported by the task that meets it
+
+    def warm_up_cells(self, setup: Setup, sim: SimPlan, chunk: Chunk) -> None:
+        # The first group of the chunk on 20 samples at the chunk's period (the same
+        # argument types as the real cells: the same compiled specialisations).
+        k = max(k for _key, _h, k in sim.members)
+        short = dataclasses.replace(setup, T=20 * k * sim.h, after=0.0, reference=None)
+        part = Chunk(chunk.traj_key, chunk.h, chunk.groups[:1], chunk.sim_key)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                shared = simulate_trajectory(short, sim)[chunk.traj_key]
+                compute_chunk(short, shared, part)
+            except Exception:  # a real failure is reported by the cells that meet it
+                pass
 
 
 #: The registered prediction kind (the default of every sweep file).

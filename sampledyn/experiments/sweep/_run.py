@@ -597,7 +597,9 @@ def _run(
             # Fork the workers before this process starts any thread (heartbeat, bar).
             h = next(iter(sims.values())).h
             pool = start_pool(setup, workers, warm_up_h=h)
-            results = local_processes(pool, setup, sims, tasks, in_flight=2 * workers)
+            results = local_processes(
+                pool, setup, sims, tasks, in_flight=2 * workers, warm_up=workers > 1
+            )
         else:
             results = in_process(setup, sims, tasks)
         if st.path is not None:
