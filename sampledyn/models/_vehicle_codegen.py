@@ -287,7 +287,9 @@ def _restoring_terms(s: Structure, k: tuple[Ex, Ex, Ex]) -> list[Ex]:
 
 
 def _coriolis(ab: Sequence[Ex]) -> list[Ex]:
-    """C(v) v = [w x a; v_lin x a + w x b] (Fossen 2011, eq. 3.46), row by row."""
+    """C(v) v = [w x a; v_lin x a + w x b] (Fossen 2011, eq. 3.46), row by row; with
+    ``ab`` a column of M instead of M v, the same rows are that column of
+    [S(w) M_top; S(v_lin) M_top + S(w) M_bot] (the Jacobian's Coriolis part)."""
     a0, a1, a2, b0, b1, b2 = ab
     vu, vv, vw, vp, vq, vr = V
     return [
@@ -583,7 +585,7 @@ def _jac_velocity_column(w: _Writer, s: Structure, ab: list[Ex], j: int) -> None
     """Column j of d f_v / d v = -M^-1 (d(C v)/dv + D_l + diag(2 d_q |v|) + K2 B
     diag(|n|) B^T), eqs. (13) and (16)."""
     m = [_entry(s, "M", s.mass, r, j) for r in range(6)]
-    d = _coriolis_column(m)
+    d = _coriolis(m)  # C(v) applied to a column of M: the same cross products
     for row, sign, which, idx in _EXTRA[j]:
         term = ab[3 * which + idx]
         d[row] = add(d[row], term) if sign > 0 else sub(d[row], term)
@@ -593,20 +595,6 @@ def _jac_velocity_column(w: _Writer, s: Structure, ab: list[Ex], j: int) -> None
     for k in range(6):
         if col[k] is not None:
             w.put(f"out[{6 + k}, {6 + j}]", col[k])
-
-
-def _coriolis_column(m: Sequence[Ex]) -> list[Ex]:
-    """[S(w) M_top; S(v_lin) M_top + S(w) M_bot] column (m = that column of M)."""
-    m0, m1, m2, n0, n1, n2 = m
-    vu, vv, vw, vp, vq, vr = V
-    return [
-        sub(mul(vq, m2), mul(vr, m1)),
-        sub(mul(vr, m0), mul(vp, m2)),
-        sub(mul(vp, m1), mul(vq, m0)),
-        sub(add(sub(mul(vv, m2), mul(vw, m1)), mul(vq, n2)), mul(vr, n1)),
-        sub(add(sub(mul(vw, m0), mul(vu, m2)), mul(vr, n0)), mul(vp, n2)),
-        sub(add(sub(mul(vu, m1), mul(vv, m0)), mul(vp, n1)), mul(vq, n0)),
-    ]
 
 
 # ------------------------------------------------------------------------ df / du
