@@ -184,17 +184,20 @@ def _child_timeline(argv: list[str]) -> None:
     prediction.compute_chunk = compute.compute_chunk
     import sampledyn.report._fig7 as fig7_report
 
-    # (looked up by name when the thread starts; its CPU is the thread's own)
-    real_prepare = fig7_report.prepare_fig7_report
+    # (looked up by name when the thread starts; its CPU is the thread's own; a
+    # checkout from before it, --baseline, has none)
+    real_prepare = getattr(fig7_report, "prepare_fig7_report", None)
 
     def prepare() -> None:
+        assert real_prepare is not None
         w0, c0 = time.time() - t_zero, time.thread_time()
         real_prepare()
         with log.open("a") as fh:
             fh.write(json.dumps(["main", "prepare", w0, time.time() - t_zero,
                                  time.thread_time() - c0]) + "\n")  # fmt: skip
 
-    fig7_report.prepare_fig7_report = prepare
+    if real_prepare is not None:
+        fig7_report.prepare_fig7_report = prepare
     real_start = run_mod.start_pool
 
     def start_pool(*a: Any, **k: Any) -> Any:
