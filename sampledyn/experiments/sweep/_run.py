@@ -392,6 +392,7 @@ def run_sweep(
     max_cells: int | None = None,
     lease: float = LEASE_SECONDS,
     on_start: Callable[[], object] | None = None,
+    order: list[str] | None = None,
 ) -> SweepSummary:
     """Compute the cells of a sweep that the store lacks, and store them.
 
@@ -429,6 +430,11 @@ def run_sweep(
         a caller with work that can overlap the cells (e.g. a report's imports)
         starts a thread of its own there (after the fork, which must not copy a
         thread in flight).
+    order : list, optional
+        The key of every planned cell is appended to it, in plan order, as the run
+        lists the grid (all of them unless the run stops early; none for a dry run):
+        :func:`run_study` returns the cells in that order without listing the grid
+        again.
 
     Returns
     -------
@@ -451,32 +457,6 @@ def run_sweep(
         passed on after the run is marked "interrupted" (finished cells kept, local
         workers terminated, claims released).
     """
-    return _sweep(
-        config, store, None, workers=workers, scheduler=scheduler,
-        groups_per_chunk=groups_per_chunk, retry_failed=retry_failed, progress=progress,
-        dry_run=dry_run, connect_timeout=connect_timeout, max_cells=max_cells, lease=lease,
-        on_start=on_start,
-    )  # fmt: skip
-
-
-def _sweep(
-    config: SweepConfig | Study | str | os.PathLike[str],
-    store: ResultStore | MemoryStore | str | os.PathLike[str] | None,
-    order: list[str] | None,
-    *,
-    workers: int | None = None,
-    scheduler: str | None = None,
-    groups_per_chunk: int | None = None,
-    retry_failed: bool = False,
-    progress: bool = False,
-    dry_run: bool = False,
-    connect_timeout: float = 30.0,
-    max_cells: int | None = None,
-    lease: float = LEASE_SECONDS,
-    on_start: Callable[[], object] | None = None,
-) -> SweepSummary:
-    """:func:`run_sweep`; with ``order`` (a list), the keys of every planned cell are
-    appended to it in plan order as the run lists them (not for a dry run)."""
     backend, n_workers = _backend(workers, scheduler, groups_per_chunk, lease)
     if scheduler is not None:
         check_timeout(connect_timeout)
@@ -791,7 +771,7 @@ def run_study(
     study = plan_study(cfg)
     mem = MemoryStore() if store is None else None
     order: list[str] = []  # the cells' keys in plan order, as the run lists them
-    summary = _sweep(study, mem if mem is not None else store, order, **options)
+    summary = run_sweep(study, mem if mem is not None else store, order=order, **options)
     # (listed whole unless the run stopped early: a dry run lists none)
     keys = order if len(order) == study.n_cells else [c.key for c in study.iter_cells()]
     if mem is not None:
