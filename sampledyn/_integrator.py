@@ -311,6 +311,28 @@ def _switch_inside(sw, sp, rhs, grad, q, mode, S, U, V, G, tc, dt, c, g):  # pra
     _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc + c, ytry, g)
 
 
+@njit(inline="always")
+def _illinois(x, fx, low, a, fa, b, fb, last):  # pragma: no cover - compiled
+    """One Illinois step (the secant method's modification of Dowell and Jarratt, BIT
+    11, 1971): the bracket [a, b] of a sign change (values fa, fb) after the point x
+    (value fx) replaces its end a (``low``) or b, the other end's value halved when
+    the same end was replaced the step before (``last``: 1 a, -1 b, 0 none).
+    Returns ``(a, fa, b, fb, last)``. Both root finders of the integrator step so:
+    an event on the step's interpolant (:func:`_crossing_root`) and a jump on the
+    step length (:func:`_secant`)."""
+    if low:
+        a, fa = x, fx
+        if last == 1:
+            fb *= 0.5
+        last = 1
+    else:
+        b, fb = x, fx
+        if last == -1:
+            fa *= 0.5
+        last = -1
+    return a, fa, b, fb, last
+
+
 @_helper
 def _crossing_root(
     sw, sp, rhs, grad, q, mode, S, U, V, G, E, tc, dt, idx, a, fa, fb
@@ -330,17 +352,12 @@ def _crossing_root(
         _switch_inside(sw, sp, rhs, grad, q, mode, S, U, V, G, tc, dt, c, E[GR])
         fc = E[GR, idx]
         if fc * fb > 0.0:
-            b, fb = c, fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
+            low = False
         elif fa * fc > 0.0:
-            a, fa = c, fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
+            low = True
         else:
             break
+        a, fa, b, fb, side = _illinois(c, fc, low, a, fa, b, fb, side)
         if b - a <= 1e-13 * dt:
             break
     return c
@@ -640,19 +657,12 @@ def _secant(dt, g, side, lo_dt, lo_g, hi_dt, hi_g, kept):  # pragma: no cover - 
     of a step of length dt (``side``: its sign before the crossing); the bracket
     [lo_dt, hi_dt] holds the crossing. Returns the new bracket and the next length to
     try, -1 when the crossing is found (bracket or value at rounding level)."""
-    if g * side > 0.0:
-        lo_dt, lo_g = dt, g
-        if kept == 1:
-            hi_g *= 0.5
-        kept = 1
-    else:
-        hi_dt, hi_g = dt, g
-        if kept == -1:
-            lo_g *= 0.5
-        kept = -1
+    lo_dt, lo_g, hi_dt, hi_g, kept = _illinois(
+        dt, g, g * side > 0.0, lo_dt, lo_g, hi_dt, hi_g, kept
+    )
     if hi_dt - lo_dt <= 1e-15 * hi_dt or abs(g) <= 1e-15 * max(abs(lo_g), abs(hi_g)):
         return lo_dt, lo_g, hi_dt, hi_g, kept, -1.0
-    nxt = (lo_dt * hi_g - hi_dt * lo_g) / (hi_g - lo_g)
+    nxt = (lo_g * hi_dt - hi_g * lo_dt) / (lo_g - hi_g)  # the secant point, as _crossing_root
     if not lo_dt < nxt < hi_dt:
         nxt = 0.5 * (lo_dt + hi_dt)
     if nxt == dt:
