@@ -169,7 +169,8 @@ _borrow: Any = _borrow_intrinsic  # called as _borrow(arr) in compiled code
 # points a dispatcher has, and none inlined by numba: numba's own inlining copies and
 # types the callee's IR once per call site (it doubled the compile time of the smooth
 # specialisation, for the same speed; LLVM inlines the calls anyway).
-_helper = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+_njit: Any = njit  # (numba's type stubs do not list the entry-point options)
+_helper = _njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 @_helper
@@ -1002,8 +1003,9 @@ def _integrate(
 # One dispatcher per specialisation, each compiled for its one signature on first use
 # and then closed to others: called from Python with the kernels as numba dispatchers,
 # an open one would compile (and cache) a specialisation on their own types instead.
-integrate = njit(cache=True, no_cfunc_wrapper=True)(_integrate)
-integrate_smooth = njit(cache=True, no_cfunc_wrapper=True)(_integrate)
+# No C entry point: compiled callers (integrate_intervals) call them directly.
+integrate = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
+integrate_smooth = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
 _COMPILE_LOCK = threading.Lock()
 
 
