@@ -144,7 +144,9 @@ def _borrow_intrinsic(typingctx, arr):  # pragma: no cover - compiled
     view, atomic operations that cost more than a step of a small model; the
     integrator's arrays are owned by :func:`integrate` (or its caller) for the whole
     call, so the helpers it calls work on borrowed ones, whose counting is a test
-    for null."""
+    for null. numba frees a local array after its last use by name, which its
+    borrowed copy is not: a function that borrows an array it made uses it again
+    after the borrowed copy's last use (:func:`_keep`)."""
     if not isinstance(arr, types.Array):
         return None
 
@@ -162,8 +164,16 @@ def _borrow_intrinsic(typingctx, arr):  # pragma: no cover - compiled
 
 _borrow: Any = _borrow_intrinsic  # called as _borrow(arr) in compiled code
 
+# The integrator's helpers: compiled only into the integrator (their code is linked
+# into its two dispatchers and cached with them), so without the Python and C entry
+# points a dispatcher has, and none inlined by numba: numba's own inlining copies and
+# types the callee's IR once per call site (it doubled the compile time of the smooth
+# specialisation, for the same speed; LLVM inlines the calls anyway).
+_njit: Any = njit  # (numba's type stubs do not list the entry-point options)
+_helper = _njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
-@njit(cache=True)
+
+@_helper
 def _input_at(U, S, t):  # pragma: no cover - compiled
     """u(t) into U[U_]: the interval's held part, the offset and the sinusoids."""
     for j in range(U.shape[1]):
@@ -173,7 +183,7 @@ def _input_at(U, S, t):  # pragma: no cover - compiled
         U[U_, j] = v
 
 
-@njit(cache=True)
+@_helper
 def _input_rate(U, S, t):  # pragma: no cover - compiled
     """du/dt into U[DU] (the held part is constant inside an interval)."""
     for j in range(U.shape[1]):
@@ -185,7 +195,7 @@ def _input_rate(U, S, t):  # pragma: no cover - compiled
 
 
 # ----------------------------------------------------------------- the two fields
-@njit(cache=True)
+@_helper
 def _normal_speeds(rhs, grad, q, pos, k, t, y, U, V, G):  # pragma: no cover - compiled
     """Branches of f on both sides of jump surface k (V[F0]: side -1, V[F0 + 1]: +1)
     at (t, y), and their normal speeds dg_k/dt along each (U holds u and du/dt)."""
@@ -214,7 +224,7 @@ def _speeds(G, k, U, V, row):  # pragma: no cover - compiled
     return s_lo, s_hi
 
 
-@njit(cache=True)
+@_helper
 def _filippov(rhs, grad, q, pos, k, t, y, U, V, G, out):  # pragma: no cover - compiled
     """Filippov's sliding vector on surface k: the convex combination of the two
     branches whose normal speed is zero (Utkin's equivalent dynamics)."""
@@ -224,14 +234,14 @@ def _filippov(rhs, grad, q, pos, k, t, y, U, V, G, out):  # pragma: no cover - c
         out[i] = V[F0, i] + a * (V[F0 + 1, i] - V[F0, i])
 
 
-@njit(cache=True)
+@_helper
 def _sliding_field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - compiled
     """Filippov's sliding vector on surface ``mode[0]`` at (t, y), u in U[U_]."""
     _input_rate(U, S, t)
     _filippov(rhs, grad, q, mode[1], mode[0], t, y, U, V, G, out)
 
 
-@njit(cache=True)
+@_helper
 def _field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - compiled
     """f of the current mode at (t, y), u in U[U_]: the branch of the sides in ``q``,
     or, while sliding on surface ``mode[0]``, Filippov's sliding vector. (The steps
@@ -243,7 +253,7 @@ def _field(rhs, grad, q, mode, S, U, V, G, t, y, out):  # pragma: no cover - com
         _sliding_field(rhs, grad, q, mode, S, U, V, G, t, y, out)
 
 
-@njit(cache=True)
+@_helper
 def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew, ytmp, u):  # pragma: no cover
     """Stages 1..11 given K[0] already; writes y_new. (ytmp, u: the rows V[YTMP] and
     U[U_], made once by the caller: a view made here would cost its reference count
@@ -270,7 +280,7 @@ def _dop_stages(rhs, grad, q, mode, S, U, V, G, t, y, dt, K, ynew, ytmp, u):  # 
 
 
 # ------------------------------------------------------------------- event values
-@njit(cache=True)
+@_helper
 def _events(sw, sp, rhs, grad, q, mode, U, V, G, S, t, y, g):  # pragma: no cover
     """The switching values at (t, y) (u in U[U_]) and, while sliding, the two normal
     speeds (g[n_sw], g[n_sw + 1]) whose zeros end the sliding."""
@@ -283,7 +293,7 @@ def _events(sw, sp, rhs, grad, q, mode, U, V, G, S, t, y, g):  # pragma: no cove
         g[n + 1] = s_hi
 
 
-@njit(cache=True)
+@_helper
 def _switch_inside(sw, sp, rhs, grad, q, mode, S, U, V, G, tc, dt, c, g):  # pragma: no cover
     """The event values at tc + c, c in [0, dt], written to ``g``.
 
@@ -302,7 +312,29 @@ def _switch_inside(sw, sp, rhs, grad, q, mode, S, U, V, G, tc, dt, c, g):  # pra
     _events(sw, sp, rhs, grad, q, mode, U, V, G, S, tc + c, ytry, g)
 
 
-@njit(cache=True)
+@njit(inline="always")
+def _illinois(x, fx, low, a, fa, b, fb, last):  # pragma: no cover - compiled
+    """One Illinois step (the secant method's modification of Dowell and Jarratt, BIT
+    11, 1971): the bracket [a, b] of a sign change (values fa, fb) after the point x
+    (value fx) replaces its end a (``low``) or b, the other end's value halved when
+    the same end was replaced the step before (``last``: 1 a, -1 b, 0 none).
+    Returns ``(a, fa, b, fb, last)``. Both root finders of the integrator step so:
+    an event on the step's interpolant (:func:`_crossing_root`) and a jump on the
+    step length (:func:`_secant`)."""
+    if low:
+        a, fa = x, fx
+        if last == 1:
+            fb *= 0.5
+        last = 1
+    else:
+        b, fb = x, fx
+        if last == -1:
+            fa *= 0.5
+        last = -1
+    return a, fa, b, fb, last
+
+
+@_helper
 def _crossing_root(
     sw, sp, rhs, grad, q, mode, S, U, V, G, E, tc, dt, idx, a, fa, fb
 ):  # pragma: no cover - compiled
@@ -321,23 +353,18 @@ def _crossing_root(
         _switch_inside(sw, sp, rhs, grad, q, mode, S, U, V, G, tc, dt, c, E[GR])
         fc = E[GR, idx]
         if fc * fb > 0.0:
-            b, fb = c, fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
+            low = False
         elif fa * fc > 0.0:
-            a, fa = c, fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
+            low = True
         else:
             break
+        a, fa, b, fb, side = _illinois(c, fc, low, a, fa, b, fb, side)
         if b - a <= 1e-13 * dt:
             break
     return c
 
 
-@njit(cache=True)
+@_helper
 def _side_event(
     sw, sp, rhs, grad, q, mode, S, U, V, G, E, tc, dt, k, s, fresh, probed, tau
 ):  # pragma: no cover - compiled
@@ -368,7 +395,7 @@ def _side_event(
     return tau, -1, -1, probed
 
 
-@njit(cache=True)
+@_helper
 def _first_event(
     sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, tc, dt, fresh
 ):  # pragma: no cover - compiled
@@ -418,7 +445,7 @@ def _first_event(
 
 
 # ------------------------------------------------------------ at a jump surface
-@njit(cache=True)
+@_helper
 def _log(log, st, t, k, what):  # pragma: no cover - compiled
     i = int(st[S_NLOG])
     log[i, 0] = t
@@ -427,7 +454,7 @@ def _log(log, st, t, k, what):  # pragma: no cover - compiled
     st[S_NLOG] = i + 1
 
 
-@njit(cache=True)
+@_helper
 def _refuse(st, status, t, k, a, b):  # pragma: no cover - compiled
     st[S_ERR_T] = t
     st[S_ERR_K] = k
@@ -436,7 +463,7 @@ def _refuse(st, status, t, k, a, b):  # pragma: no cover - compiled
     return status
 
 
-@njit(cache=True)
+@_helper
 def _on_surface(rhs, grad, q, mode, sw_info, U, V, G, k, t, y, st, log):  # pragma: no cover
     """At a zero of jump k: cross, start sliding, or refuse (see the module notes).
     While sliding on another surface, the two sliding fields (k's side -1 and +1)
@@ -468,7 +495,7 @@ def _on_surface(rhs, grad, q, mode, sw_info, U, V, G, k, t, y, st, log):  # prag
     return OK
 
 
-@njit(cache=True)
+@_helper
 def _event(rhs, grad, q, mode, sw_info, S, U, V, G, k, tc, st, log):  # pragma: no cover
     """Event value k has reached zero at (tc, V[Y]): nothing for a kink; a jump
     surface is decided by :func:`_on_surface`; a sliding speed ends the sliding on
@@ -495,7 +522,7 @@ def _event(rhs, grad, q, mode, sw_info, S, U, V, G, k, tc, st, log):  # pragma: 
     return status
 
 
-@njit(cache=True)
+@_helper
 def _project(sw, sp, grad, q, k, t, y, u, g, G):  # pragma: no cover - compiled
     """One Newton step back onto the surface g_k = 0 along dg_k/dx (exact for a
     surface linear in x): the projection of Hairer, Lubich and Wanner, *Geometric
@@ -513,7 +540,7 @@ def _project(sw, sp, grad, q, k, t, y, u, g, G):  # pragma: no cover - compiled
 
 
 # ------------------------------------------------------------------ the steps
-@njit(inline="always")
+@_helper
 def _error(K, y, ynew, dt, rtol, atol):  # pragma: no cover - compiled
     """DOP853's error estimate of the step (Hairer's dop853.f), and whether ynew is
     finite."""
@@ -537,7 +564,7 @@ def _error(K, y, ynew, dt, rtol, atol):  # pragma: no cover - compiled
     return dt * e5 / math.sqrt((e5 + 0.01 * e3) * nx), finite
 
 
-@njit(inline="always")
+@_helper
 def _half_steps(
     rhs, grad, q, mode, S, U, V, G, tc, step, yf, yfm, yfn, Kf, ytmp, u
 ):  # pragma: no cover - compiled
@@ -560,7 +587,7 @@ def _half_steps(
         yf[j] = yfn[j]
 
 
-@njit(inline="always")
+@_helper
 def _attempt(
     rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, tc, dt, fresh, y, ynew, ytmp,
     u, K, ga, gb,
@@ -631,19 +658,12 @@ def _secant(dt, g, side, lo_dt, lo_g, hi_dt, hi_g, kept):  # pragma: no cover - 
     of a step of length dt (``side``: its sign before the crossing); the bracket
     [lo_dt, hi_dt] holds the crossing. Returns the new bracket and the next length to
     try, -1 when the crossing is found (bracket or value at rounding level)."""
-    if g * side > 0.0:
-        lo_dt, lo_g = dt, g
-        if kept == 1:
-            hi_g *= 0.5
-        kept = 1
-    else:
-        hi_dt, hi_g = dt, g
-        if kept == -1:
-            lo_g *= 0.5
-        kept = -1
+    lo_dt, lo_g, hi_dt, hi_g, kept = _illinois(
+        dt, g, g * side > 0.0, lo_dt, lo_g, hi_dt, hi_g, kept
+    )
     if hi_dt - lo_dt <= 1e-15 * hi_dt or abs(g) <= 1e-15 * max(abs(lo_g), abs(hi_g)):
         return lo_dt, lo_g, hi_dt, hi_g, kept, -1.0
-    nxt = (lo_dt * hi_g - hi_dt * lo_g) / (hi_g - lo_g)
+    nxt = (lo_g * hi_dt - hi_g * lo_dt) / (lo_g - hi_g)  # the secant point, as _crossing_root
     if not lo_dt < nxt < hi_dt:
         nxt = 0.5 * (lo_dt + hi_dt)
     if nxt == dt:
@@ -651,7 +671,7 @@ def _secant(dt, g, side, lo_dt, lo_g, hi_dt, hi_g, kept):  # pragma: no cover - 
     return lo_dt, lo_g, hi_dt, hi_g, kept, nxt
 
 
-@njit(inline="always")
+@_helper
 def _new_step(err, step, dt_free, rejected):  # pragma: no cover - compiled
     """The step proposal after an accepted step (a step cut short to land on the
     sample time or on an event says nothing about it and does not change it)."""
@@ -663,7 +683,7 @@ def _new_step(err, step, dt_free, rejected):  # pragma: no cover - compiled
     return dt_free
 
 
-@njit(cache=True)
+@_helper
 def _accept(
     sw, sp, rhs, grad, q, mode, sw_info, S, U, V, G, E, cut, tc, st, log
 ):  # pragma: no cover - compiled
@@ -685,7 +705,7 @@ def _accept(
     return _event(rhs, grad, q, mode, sw_info, S, U, V, G, cut, tc, st, log)
 
 
-@njit(inline="always")
+@_helper
 def _advance(
     rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, ctl, st, log, work, y, yf,
     ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
@@ -693,8 +713,7 @@ def _advance(
     """Steps of the interval [ta, tb] from the state in (st, V) until its end (OK), a
     pause after ``budget`` attempts in this call, or a stop; (status, work done).
     ``ctl``: rtol, atol, certify, budget, max_steps. y ... gb: the rows of V, U and E
-    the steps use, made once (:func:`_intervals`; an inlined function takes at most
-    30 arguments)."""
+    the steps use, made once (:func:`_intervals`)."""
     rtol, atol, certify = ctl[0], ctl[1], ctl[2] != 0.0
     budget, max_steps = ctl[3], ctl[4]
     min_dt = 1e-12 * (tb - ta)
@@ -754,7 +773,7 @@ def _advance(
     return status, work
 
 
-@njit(cache=True)
+@_helper
 def _checkpoint(st, log, work, budget, max_steps, tc):  # pragma: no cover - compiled
     """Why the steps stop before an attempt: a pause (the call's budget is spent, or
     the sliding log may fill), or a stalled interval."""
@@ -766,7 +785,7 @@ def _checkpoint(st, log, work, budget, max_steps, tc):  # pragma: no cover - com
 
 
 # ------------------------------------------------------------ interval ends
-@njit(cache=True)
+@_helper
 def _begin(V, X, restart, n, tc, st):  # pragma: no cover - compiled
     """Start interval n at tc from X[n] (the certifying run too, at a sample time)."""
     for j in range(X.shape[1]):
@@ -781,7 +800,7 @@ def _begin(V, X, restart, n, tc, st):  # pragma: no cover - compiled
     st[S_PHASE] = 1.0
 
 
-@njit(cache=True)
+@_helper
 def _begin_jumps(
     rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, tc, st, log
 ):  # pragma: no cover - compiled
@@ -795,7 +814,7 @@ def _begin_jumps(
     return status
 
 
-@njit(cache=True)
+@_helper
 def _has_jumps(sw_info):  # pragma: no cover - compiled
     for k in range(sw_info.shape[0]):
         if sw_info[k, 0] >= 0:
@@ -803,7 +822,7 @@ def _has_jumps(sw_info):  # pragma: no cover - compiled
     return False
 
 
-@njit(cache=True)
+@_helper
 def _set_sides(rhs, grad, q, mode, sw_info, U, V, G, g, tc, st, log):  # pragma: no cover
     """The side of every jump from the sign of its switching value ``g`` at the run's
     start, or, later, of those that depend on the input where the input moved them
@@ -834,7 +853,7 @@ def _moved(sw_info, g, st, k, first):  # pragma: no cover - compiled
     return sw_info[k, 0] >= 0 and (first or (sw_info[k, 1] == 1 and g[k] != st[_S_G + k]))
 
 
-@njit(cache=True)
+@_helper
 def _finish(X, steps, diff, V, st, n):  # pragma: no cover - compiled
     """Interval n is done: its end sample, its certificate difference, its steps."""
     for j in range(X.shape[1]):
@@ -845,7 +864,7 @@ def _finish(X, steps, diff, V, st, n):  # pragma: no cover - compiled
     st[S_PHASE] = 0.0
 
 
-@njit(cache=True)
+@_helper
 def _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, tb, st):  # pragma: no cover
     """The switching values at an interval's end (to tell where the next interval's
     input moves a surface)."""
@@ -855,12 +874,13 @@ def _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, tb, st):  # pragma:
         st[_S_G + k] = E[GR, k]
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _intervals(
     rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t, hold, ctl, n_stop, X, steps, diff,
     restart, st, log,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """The intervals from st[S_N] to n_stop - 1 (see :func:`integrate`)."""
+    """The intervals from st[S_N] to n_stop - 1 (see :func:`integrate`), on borrowed
+    arrays (:func:`_borrow`)."""
     y, yf, ynew, ytmp, yfm, yfn = V[Y], V[YF], V[YNEW], V[YTMP], V[YFM], V[YFN]
     K, Kf, u, ga, gb = V[K_ : K_ + _NS + 1], V[KF : KF + _NS + 1], U[U_], E[GA], E[GB]
     jumps = _has_jumps(sw_info)
@@ -888,6 +908,13 @@ def _intervals(
             if grad is not None and jumps:
                 _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, t[n + 1], st)
     return status
+
+
+@_helper
+def _keep(E, U, S, G, ctl):  # pragma: no cover - compiled
+    """Nothing: a use of the arrays :func:`integrate` makes, after the loop that works on
+    their borrowed copies (numba frees an array after its last use by name)."""
+    return None
 
 
 _F = types.float64
@@ -967,6 +994,7 @@ def _integrate(
         _borrow(st), _borrow(log),
     )  # fmt: skip
     st[S_SLIDE] = mode[0]
+    _keep(E, U, S, G, ctl)  # (numba would free them after their borrowing, their last use)
     return status
 
 
@@ -975,8 +1003,9 @@ def _integrate(
 # One dispatcher per specialisation, each compiled for its one signature on first use
 # and then closed to others: called from Python with the kernels as numba dispatchers,
 # an open one would compile (and cache) a specialisation on their own types instead.
-integrate = njit(cache=True)(_integrate)
-integrate_smooth = njit(cache=True)(_integrate)
+# No C entry point: compiled callers (integrate_intervals) call them directly.
+integrate = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
+integrate_smooth = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
 _COMPILE_LOCK = threading.Lock()
 
 

@@ -71,3 +71,29 @@ def test_the_integrator_uses_the_whole_table():
         (sim_module._E5, ref.E5),
     ):
         assert np.array_equal(ours.view(np.int64), np.ascontiguousarray(theirs).view(np.int64))
+
+
+def test_a_kernel_that_allocates_does_not_change_the_samples():
+    """The integrator's own work arrays live for the whole call: a model kernel whose
+    temporaries take memory of their sizes (filled with garbage) gets the same samples
+    to the bit as the same f without them (once, numba freed those arrays before the
+    integration started, and such a kernel moved the samples by 1e-7)."""
+    import sampledyn as sd
+    from sampledyn.models import FunctionModel
+
+    def plain(t, x, u, p, out):
+        out[0] = x[1]
+        out[1] = -x[0] - 0.1 * x[1] * abs(x[1]) + u[0]
+
+    def allocating(t, x, u, p, out):
+        for n in (2, 3, 4, 5, 8, 12, 16):
+            w = np.empty(n)
+            w[:] = 1e300
+        out[0] = x[1]
+        out[1] = -x[0] - 0.1 * x[1] * abs(x[1]) + u[0]
+
+    signal = sd.signals.Multilevel(low=-1.0, high=1.0, hold=0.5, seed=0)
+    a = sd.simulate(FunctionModel(plain, 2, 1, x0=[1.0, 0.0]), signal, T=5.0, h=0.1)
+    b = sd.simulate(FunctionModel(allocating, 2, 1, x0=[1.0, 0.0]), signal, T=5.0, h=0.1)
+    assert np.array_equal(a.x, b.x)
+    assert np.array_equal(a.certificate.per_interval, b.certificate.per_interval)
