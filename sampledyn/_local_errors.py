@@ -121,7 +121,19 @@ def sums_of_squares(errors: np.ndarray, component_sets: Any) -> np.ndarray:
     e = np.asarray(errors, dtype=float)
     if e.ndim != 2:
         raise ValueError(f"`errors` must have shape (N, nx), got {e.shape}.")
-    nx = e.shape[1]
+    from ._sums import squares_of_sets  # numba, loaded on first use
+
+    sets = _component_tuples(e.shape[1], component_sets)
+    cols_, starts, dest, parent, skip = _prefix_plan(sets)
+    out = np.empty((len(sets), e.shape[0]))
+    squares_of_sets(np.ascontiguousarray(e), cols_, starts, dest, parent, skip, out)
+    return out
+
+
+def _component_tuples(nx: int, component_sets: Any) -> tuple[tuple[int, ...], ...]:
+    """The component sets of :func:`sums_of_squares` as tuples of indices in 0..nx-1.
+
+    Raises ValueError for a set that selects no component or one out of range."""
     cols = []
     for comps in component_sets:
         if comps is None or isinstance(comps, slice):
@@ -133,13 +145,8 @@ def sums_of_squares(errors: np.ndarray, component_sets: Any) -> np.ndarray:
             idx = np.where(idx < 0, idx + nx, idx)
         if idx.size == 0:
             raise ValueError(f"component set {comps!r} selects no component of {nx}.")
-        cols.append(idx)
-    from ._sums import squares_of_sets  # numba, loaded on first use
-
-    cols_, starts, dest, parent, skip = _prefix_plan(tuple(tuple(int(i) for i in c) for c in cols))
-    out = np.empty((len(cols), e.shape[0]))
-    squares_of_sets(np.ascontiguousarray(e), cols_, starts, dest, parent, skip, out)
-    return out
+        cols.append(tuple(int(i) for i in idx))
+    return tuple(cols)
 
 
 @lru_cache(maxsize=64)
@@ -277,6 +284,44 @@ class ErrorWindow:
         _check_kinds(kinds)
         return self._norms(squares[self.rows], kinds)
 
+    def norms_of_sets(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        component_sets: Any,
+        kinds: tuple[str, ...] = ERROR_NORMS,
+    ) -> list[dict[str, float]] | None:
+        """:meth:`norms` of the errors ``a - b`` (both shape (N, nx), float64; e.g. the
+        samples and a prediction) over each of ``component_sets``, from one compiled
+        pass over the window's samples that forms neither the errors nor their squares
+        as arrays: the same numbers bit for bit (the sums in numpy's pairwise order).
+
+        Returns None where that pass does not apply (then :meth:`norms_of_squares`):
+        a non-uniform grid (weighted norms), a window that is not the samples from some
+        n on (a mask), or a NaN in it (a sample without a prediction is left out).
+        Raises ValueError as :func:`sums_of_squares` for a set that selects nothing."""
+        if self.span is not None or not isinstance(self.rows, slice):
+            return None
+        first, n = self.rows.indices(self.n_samples)[:2]
+        if n <= first or a.shape != b.shape or a.shape[0] != self.n_samples:
+            return None
+        _check_kinds(kinds)
+        from ._sums import window_sums  # numba, loaded on first use
+
+        plan = _prefix_plan(_component_tuples(a.shape[1], component_sets))
+        leaves, joins = _pairwise_plan(n - first)
+        out = np.empty((3, len(plan[2])))
+        extra = int("mean" in kinds or "max" in kinds)
+        window_sums(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
+                    first, *plan, leaves, joins, extra, out)  # fmt: skip
+        if np.isnan(out[0]).any():  # a NaN row (the squares are >= 0: no inf - inf)
+            return None
+        size = n - first
+        return [
+            _kinds_of(kinds, float(out[0, k]), size, float(out[1, k]), lambda k=k: float(out[2, k]))
+            for k in range(out.shape[1])
+        ]
+
     def _norms(self, sq: np.ndarray, kinds: tuple[str, ...]) -> dict[str, float]:
         """The kinds from the sums of squares of the window's samples (NaN: none)."""
         span = self.span
@@ -297,21 +342,58 @@ class ErrorWindow:
             )
         w = None if span is None else span / span.mean()
         total = float(sq.sum()) if w is None else float((w * sq).sum())
-        out: dict[str, float] = {}
-        for kind in kinds:
-            if kind == "rms":
-                out[kind] = float(np.sqrt(total / sq.size))
-            elif kind == "max":
-                out[kind] = float(np.sqrt(sq.max()))
-            elif kind == "l2_over_n":
-                out[kind] = float(np.sqrt(total) / sq.size)
-            elif kind == "l2":
-                out[kind] = float(np.sqrt(total))
-            elif w is None:
-                out[kind] = float(np.sqrt(sq).mean())
-            else:
-                out[kind] = float((w * np.sqrt(sq)).sum() / sq.size)
-        return out
+
+        def roots() -> float:
+            r = np.sqrt(sq)
+            return float(r.sum()) if w is None else float((w * r).sum())
+
+        return _kinds_of(kinds, total, sq.size, float(sq.max()), roots)
+
+
+def _kinds_of(
+    kinds: tuple[str, ...], total: float, size: int, max_sq: float, roots: Any
+) -> dict[str, float]:
+    """The norms of the module docstring from the (weighted) sum of the per-sample sums
+    of squares ``total``, their number ``size``, the largest ``max_sq``, and ``roots()``
+    the (weighted) sum of their square roots (called only for "mean")."""
+    out: dict[str, float] = {}
+    for kind in kinds:
+        if kind == "rms":
+            out[kind] = float(np.sqrt(total / size))
+        elif kind == "max":
+            out[kind] = float(np.sqrt(max_sq))
+        elif kind == "l2_over_n":
+            out[kind] = float(np.sqrt(total) / size)
+        elif kind == "l2":
+            out[kind] = float(np.sqrt(total))
+        else:
+            out[kind] = float(roots() / size)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _pairwise_plan(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """numpy's pairwise summation tree of n > 0 contiguous float64 values (the order
+    ``np.sum`` adds them in): the leaves, rows (offset, count) of at most
+    :data:`sampledyn._sums.PAIRWISE_BLOCK` values each, in order, and the joins, rows
+    (left, right) added in this order, a node being leaf k >= 0 or join -1 - j (the
+    last join is the sum; none for one leaf)."""
+    leaves: list[tuple[int, int]] = []
+    joins: list[tuple[int, int]] = []
+
+    def node(lo: int, m: int) -> int:
+        if m <= 128:  # PAIRWISE_BLOCK; numpy splits a longer run at a multiple of 8
+            leaves.append((lo, m))
+            return len(leaves) - 1
+        half = m // 2
+        half -= half % 8
+        pair = (node(lo, half), node(lo + half, m - half))
+        joins.append(pair)
+        return -len(joins)
+
+    node(0, n)
+    return (np.array(leaves, dtype=np.int64).reshape(-1, 2),
+            np.array(joins, dtype=np.int64).reshape(-1, 2))  # fmt: skip
 
 
 def error_window(

@@ -46,7 +46,7 @@ from ...exceptions import ConvergenceError, IntegrationError
 from ...methods import get_method
 from ...models import ClosedLoop, Model
 from ._cells import Chunk, Group, Setup, SimPlan
-from ._norms import NormSpec, measure, parse_norm
+from ._norms import ErrorPair, NormSpec, measure, parse_norm
 from ._summaries import summarize_trajectory
 
 __all__ = [
@@ -268,11 +268,11 @@ class _Context:
         return self._clean[method.name]
 
 
-def _noise_part(ctx: _Context, method: Any, err: np.ndarray) -> Callable[[], np.ndarray]:
+def _noise_part(ctx: _Context, method: Any, err: ErrorPair) -> Callable[[], ErrorPair]:
     """The noise contributions (disturbed minus undisturbed local errors), on demand."""
 
-    def part() -> np.ndarray:
-        return err - ctx.clean_errors(method)
+    def part() -> ErrorPair:
+        return ErrorPair(err.array(), ctx.clean_errors(method))
 
     return part
 
@@ -299,7 +299,7 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
                     setup.model, method, measured, reference, ctx.signal
                 )
                 x_hat = predict(method, model, data, signal, cache=cache)
-                err = local_errors(x_hat, measured, out=x_hat if x_hat.flags.writeable else None)
+                err = ErrorPair(measured.x, x_hat)
                 specs = [ctx.spec(norm) for _key, norm in cells]
                 found = measure(
                     specs,
