@@ -52,6 +52,7 @@ __all__ = [
 ]
 
 ERROR_NORMS = ("rms", "max", "l2_over_n", "l2", "mean")
+_NO_WEIGHTS = np.zeros((1, 0))  # hw of ErrorWindow.norms_of_sets for a plain pair
 
 
 def local_errors(
@@ -290,20 +291,27 @@ class ErrorWindow:
         b: np.ndarray,
         component_sets: Any,
         kinds: tuple[str, ...] = ERROR_NORMS,
+        hw: np.ndarray | None = None,
     ) -> list[dict[str, float]] | None:
         """:meth:`norms` of the errors ``a - b`` (both shape (N, nx), float64; e.g. the
         samples and a prediction) over each of ``component_sets``, from one compiled
         pass over the window's samples that forms neither the errors nor their squares
         as arrays: the same numbers bit for bit (the sums in numpy's pairwise order).
 
+        With ``hw`` (shape (1, s) or (N - s, s)), ``b`` is f at the samples ``a`` and the
+        prediction of row k is not an array either: ``a[k-1] + sum_i hw[., i] b[k-1-i]``
+        as :func:`sampledyn._sums.fir_rows` forms it (an Adams-type rule).
+
         Returns None where that pass does not apply (then :meth:`norms_of_squares`):
         a non-uniform grid (weighted norms), a window that is not the samples from some
-        n on (a mask), or a NaN in it (a sample without a prediction is left out).
+        n on (a mask), a row without a prediction in it (NaN, or k < s with ``hw``).
         Raises ValueError as :func:`sums_of_squares` for a set that selects nothing."""
         if self.span is not None or not isinstance(self.rows, slice):
             return None
         first, n = self.rows.indices(self.n_samples)[:2]
         if n <= first or a.shape != b.shape or a.shape[0] != self.n_samples:
+            return None
+        if hw is not None and (first < hw.shape[1] or hw.shape[0] not in (1, n - hw.shape[1])):
             return None
         _check_kinds(kinds)
         from ._sums import window_sums  # numba, loaded on first use
@@ -312,7 +320,9 @@ class ErrorWindow:
         leaves, joins = _pairwise_plan(n - first)
         out = np.empty((3, len(plan[2])))
         extra = int("mean" in kinds or "max" in kinds)
+        fir = hw is not None
         window_sums(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
+                    fir, _NO_WEIGHTS if hw is None else np.ascontiguousarray(hw, dtype=float),
                     first, *plan, leaves, joins, extra, out)  # fmt: skip
         if np.isnan(out[0]).any():  # a NaN row (the squares are >= 0: no inf - inf)
             return None

@@ -110,13 +110,19 @@ def add_noise(
     from ._sums import add_scaled_draws  # numba, loaded on first use
 
     x = np.ascontiguousarray(clean.x, dtype=float)
-    noisy = x.copy()  # the components without noise stay the samples
+    noisy = np.empty_like(x)
+    quiet = np.flatnonzero(~np.isin(groups, tuple(streams)))
+    if quiet.size:  # the components without noise stay the samples
+        noisy[:, quiet] = x[:, quiet]
+    draws = np.empty(0)  # one buffer for both streams
     for group, ss in streams.items():
         cols = np.flatnonzero(groups == group)
         if cols.size == 0:
             continue
         rng = np.random.default_rng(ss)
-        draws = np.empty((x.shape[0], cols.size))
+        if draws.size != x.shape[0] * cols.size:
+            draws = np.empty((x.shape[0], cols.size))
+        draws = draws.reshape(x.shape[0], cols.size)
         # The draws of uniform(-1, 1) (-1 + 2 r, r in [0, 1)) and of standard_normal()
         # / sqrt(3), scaled and added to the samples in one pass, without temporaries.
         if distribution == "uniform":

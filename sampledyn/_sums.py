@@ -7,7 +7,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["add_scaled_draws", "squares_in_order", "squares_of_sets", "window_sums"]
+__all__ = [
+    "add_scaled_draws",
+    "fir_rows",
+    "squares_in_order",
+    "squares_of_sets",
+    "window_sums",
+]
 
 #: The longest run numpy's pairwise summation adds with 8 accumulators (PW_BLOCKSIZE).
 PAIRWISE_BLOCK = 128
@@ -89,73 +95,118 @@ def _pairwise_leaf(v, m):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def window_sums(a, b, first, cols, starts, dest, parent, skip, leaves, joins, extra, out):  # pragma: no cover - compiled
-    """Per component set k, over the rows ``first..N-1`` of ``e = a - b`` (shape (N,
-    nx)), the sums a norm needs, in one pass and without the arrays: ``out[0, k]`` the
-    sum of the per-row sums of squares (:func:`squares_of_sets`, the same bits), as
-    ``np.sum`` of them adds (numpy's pairwise tree: ``leaves``, rows (offset, count)
-    from ``first``; ``joins``, node pairs added in order, a node being a leaf k >= 0
-    or the join -1 - j), ``out[1, k]`` their largest, ``out[2, k]`` the pairwise sum of
-    their square roots (if ``roots``), ``out[3, k]`` the number of rows that are NaN
-    (then the others mean nothing)."""
+def fir_rows(x, f, hw, lo, hi, out, shift):  # pragma: no cover - compiled
+    """``out[k - shift] = x[k-1] + sum_i hw[k-s, i] f[k-1-i]`` for k = lo..hi-1 (lo >= s;
+    ``hw[0]`` on every row if hw has one row), each product and sum rounded in that
+    order: the prediction of an Adams-type rule from f at the samples
+    (:func:`sampledyn.methods._adams.ab_filter_steps`), row by row (the inner loops run
+    over contiguous rows, which the compiler vectorises)."""
+    nx = x.shape[1]
+    s = hw.shape[1]
+    per_row = hw.shape[0] > 1
+    for k in range(lo, hi):
+        w = hw[k - s] if per_row else hw[0]
+        xr = x[k - 1]
+        o = out[k - shift]
+        for j in range(nx):
+            o[j] = xr[j]
+        for i in range(s):
+            c = w[i]
+            fr = f[k - 1 - i]
+            for j in range(nx):
+                o[j] += c * fr[j]
+
+
+@njit(cache=True)
+def _leaf_sums(sq, m, q, cols, starts, dest, parent, skip, extra, vals, leaf, out):  # pragma: no cover - compiled
+    """Leaf q of :func:`window_sums`: from the squares ``sq[j, r]`` of its m rows, each
+    set's per-row sums (rows innermost: independent, vectorised; the additions of
+    :func:`squares_of_sets`), their pairwise sum, and with ``extra`` their largest and
+    the pairwise sum of their roots."""
+    for k in range(starts.shape[0] - 1):
+        acc = vals[dest[k]]
+        i0 = starts[k] + skip[k]
+        if parent[k] >= 0:
+            prev = vals[parent[k]]
+            for r in range(m):
+                acc[r] = prev[r]
+        else:
+            sc = sq[cols[i0]]
+            for r in range(m):
+                acc[r] = sc[r]
+            i0 += 1
+        for i in range(i0, starts[k + 1]):
+            sc = sq[cols[i]]
+            for r in range(m):
+                acc[r] += sc[r]
+    for k in range(starts.shape[0] - 1):
+        v = vals[k]
+        leaf[0, k, q] = _pairwise_leaf(v, m)
+        if extra:
+            mx = out[1, k]
+            for r in range(m):
+                mx = max(mx, v[r])
+            out[1, k] = mx
+            for r in range(m):
+                v[r] = np.sqrt(v[r])
+            leaf[1, k, q] = _pairwise_leaf(v, m)
+
+
+@njit(cache=True)
+def _join_leaves(leaf, joins, extra, out):  # pragma: no cover - compiled
+    """The leaves' sums added up the pairwise tree (``joins``) into ``out[0]`` (and the
+    roots' into ``out[2]`` with ``extra``)."""
+    n_sets = leaf.shape[1]
+    join = np.empty(joins.shape[0])
+    for s in range(1 + extra):
+        for k in range(n_sets):
+            for j in range(joins.shape[0]):
+                left, right = joins[j, 0], joins[j, 1]
+                a = leaf[s, k, left] if left >= 0 else join[-1 - left]
+                b = leaf[s, k, right] if right >= 0 else join[-1 - right]
+                join[j] = a + b
+            out[2 * s, k] = join[joins.shape[0] - 1] if joins.shape[0] else leaf[s, k, 0]
+
+
+@njit(cache=True)
+def window_sums(a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, joins, extra, out):  # pragma: no cover - compiled
+    """Per component set k, over the rows ``first..N-1`` of the errors ``e = a - b``
+    (shape (N, nx)), the sums a norm needs, in one pass and without the arrays:
+    ``out[0, k]`` the sum of the per-row sums of squares (:func:`squares_of_sets`, the
+    same bits), as ``np.sum`` adds them (numpy's pairwise tree: ``leaves``, rows
+    (offset, count) from ``first``; ``joins``, node pairs added in order, a node being
+    leaf k >= 0 or join -1 - j); with ``extra`` ``out[1, k]`` their largest and
+    ``out[2, k]`` the pairwise sum of their square roots. A NaN row makes ``out[0, k]``
+    NaN (the squares are >= 0).
+
+    With ``fir`` the prediction ``b`` is not an array but formed here by
+    :func:`fir_rows` from ``a`` (the samples), ``b`` (f at the samples) and ``hw``
+    (first >= s)."""
     nx = a.shape[1]
     n_sets = starts.shape[0] - 1
     block = PAIRWISE_BLOCK
     sq = np.empty((nx, block))
+    pred = np.empty((block, nx))
     vals = np.empty((n_sets, block))
     leaf = np.empty((2, n_sets, leaves.shape[0]))
-    join = np.empty((2, n_sets, joins.shape[0]))
     for k in range(n_sets):
         out[1, k] = -np.inf
     for q in range(leaves.shape[0]):
         lo = first + leaves[q, 0]
         m = leaves[q, 1]
-        # The squares of the leaf's rows once, by component, then each set's sums with
-        # the rows innermost (independent, vectorised), as squares_of_sets forms them.
-        for r in range(m):
-            for j in range(nx):
-                x = a[lo + r, j] - b[lo + r, j]
-                sq[j, r] = x * x
-        for k in range(n_sets):
-            acc = vals[dest[k]]
-            i0 = starts[k] + skip[k]
-            if parent[k] >= 0:
-                prev = vals[parent[k]]
-                for r in range(m):
-                    acc[r] = prev[r]
-            else:
-                sc = sq[cols[i0]]
-                for r in range(m):
-                    acc[r] = sc[r]
-                i0 += 1
-            for i in range(i0, starts[k + 1]):
-                sc = sq[cols[i]]
-                for r in range(m):
-                    acc[r] += sc[r]
-        for k in range(n_sets):
-            v = vals[k]
-            leaf[0, k, q] = _pairwise_leaf(v, m)
-            if extra:
-                mx = out[1, k]
-                for r in range(m):
-                    mx = max(mx, v[r])
-                out[1, k] = mx
-                for r in range(m):
-                    v[r] = np.sqrt(v[r])
-                leaf[1, k, q] = _pairwise_leaf(v, m)
-    for s in range(1 + extra):
-        for k in range(n_sets):
-            for j in range(joins.shape[0]):
-                total = 0.0
-                for side in range(2):
-                    node = joins[j, side]
-                    part = leaf[s, k, node] if node >= 0 else join[s, k, -1 - node]
-                    total = part if side == 0 else total + part
-                join[s, k, j] = total
-            if joins.shape[0]:
-                out[2 * s, k] = join[s, k, joins.shape[0] - 1]
-            else:
-                out[2 * s, k] = leaf[s, k, 0]
+        if fir:
+            fir_rows(a, b, hw, lo, lo + m, pred, lo)
+            for r in range(m):
+                for j in range(nx):
+                    x = a[lo + r, j] - pred[r, j]
+                    sq[j, r] = x * x
+        else:
+            for r in range(m):
+                for j in range(nx):
+                    x = a[lo + r, j] - b[lo + r, j]
+                    sq[j, r] = x * x
+        _leaf_sums(sq, m, q, cols, starts, dest, parent, skip, extra, vals, leaf, out)
+    _join_leaves(leaf, joins, extra, out)
 
 
 @njit(cache=True)

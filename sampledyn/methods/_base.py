@@ -65,6 +65,7 @@ samples are then computed once and shared, e.g. by every AB order of a study.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from fractions import Fraction
 from typing import Any, Protocol, runtime_checkable
@@ -427,8 +428,20 @@ def _cached(
     hit = cache.get(key)
     if hit is not None and hit[0] is model and hit[1] is data:
         return hit[2]
-    value = np.array(compute(), dtype=float)
-    value.setflags(write=False)
+    value = np.asarray(compute(), dtype=float)
+    # Frozen in place when nothing else holds the array (a model returns a new one:
+    # referenced here and by getrefcount's argument; its base, if any, also by the
+    # array); copied when another object might write to it later.
+    base = value.base
+    if (
+        value.flags.writeable
+        and sys.getrefcount(value) <= 2
+        and (base is None or sys.getrefcount(base) <= 3)
+    ):
+        value.setflags(write=False)
+    else:
+        value = value.copy()
+        value.setflags(write=False)
     cache[key] = (model, data, value)
     return value
 

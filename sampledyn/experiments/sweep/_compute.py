@@ -39,7 +39,7 @@ import numpy as np
 
 from ..._local_errors import local_errors
 from ..._noise import add_noise
-from ..._predict import predict
+from ..._predict import check_measured, predict
 from ..._simulate import simulate
 from ..._trajectory import Trajectory
 from ...exceptions import ConvergenceError, IntegrationError
@@ -240,7 +240,14 @@ class _Context:
         self._specs: dict[str, NormSpec] = {}
         self._masks: dict[NormSpec, np.ndarray | None] = {}
         self._clean: dict[str, np.ndarray] = {}
+        self._methods: dict[str, Any] = {}
         self.windows: dict[Any, Any] = {}  # samples counted per (t, mask): measure's
+
+    def method(self, name: str) -> Any:
+        """The method object of ``name`` (built once per chunk, not per group)."""
+        if name not in self._methods:
+            self._methods[name] = get_method(name)
+        return self._methods[name]
 
     def spec(self, norm: str) -> NormSpec:
         if norm not in self._specs:
@@ -277,6 +284,29 @@ def _noise_part(ctx: _Context, method: Any, err: ErrorPair) -> Callable[[], Erro
     return part
 
 
+def _errors(
+    method: Any, model: Any, data: Trajectory, signal: Any, measured: Trajectory, cache: dict
+) -> ErrorPair:
+    """The disturbed local errors of ``method`` predicting ``measured`` from ``data``
+    (its samples, with the input the rule uses). A rule that is a filter over f at the
+    samples (``sample_filter``: the Adams rules) hands over f and its weights, and the
+    norms form the rows they count in one pass; any other is :func:`predict`-ed."""
+
+    def prediction() -> np.ndarray:
+        return predict(method, model, data, signal, cache=cache)
+
+    sample_filter = getattr(method, "sample_filter", None)
+    if sample_filter is not None and data.x is measured.x:
+        try:
+            check_measured(model, data)
+            f, hw = sample_filter(model, data, cache=cache)
+        except CELL_ERRORS:
+            pass  # predict() raises it, in its words
+        else:
+            return ErrorPair(measured.x, f, hw, prediction)
+    return ErrorPair(measured.x, prediction())
+
+
 def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
     setup = ctx.setup
     t_group = time.perf_counter()
@@ -294,12 +324,11 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                method = get_method(method_name)
+                method = ctx.method(method_name)
                 model, data, signal = prediction_inputs(
                     setup.model, method, measured, reference, ctx.signal
                 )
-                x_hat = predict(method, model, data, signal, cache=cache)
-                err = ErrorPair(measured.x, x_hat)
+                err = _errors(method, model, data, signal, measured, cache)
                 specs = [ctx.spec(norm) for _key, norm in cells]
                 found = measure(
                     specs,

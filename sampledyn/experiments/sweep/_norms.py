@@ -391,16 +391,30 @@ class ErrorPair:
     the disturbed minus the undisturbed local errors), both shape (N, nx): the norms
     of a window of samples are summed from the pair in one pass
     (:meth:`~sampledyn._local_errors.ErrorWindow.norms_of_sets`); the array of the
-    errors is formed (:func:`sampledyn.local_errors`, once) only where a norm needs it."""
+    errors is formed (:func:`sampledyn.local_errors`, once) only where a norm needs it.
 
-    def __init__(self, a: np.ndarray, b: np.ndarray) -> None:
-        self.a, self.b = a, b
+    With ``hw`` the prediction is not an array: ``b`` is f at the samples ``a`` and the
+    prediction of row k ``a[k-1] + sum_i hw[., i] b[k-1-i]`` (an Adams-type rule's
+    :meth:`sample_filter`), and ``prediction()`` forms it where a norm needs the
+    errors as an array.
+    """
+
+    def __init__(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        hw: np.ndarray | None = None,
+        prediction: Callable[[], np.ndarray] | None = None,
+    ) -> None:
+        self.a, self.b, self.hw = a, b, hw
+        self._prediction = prediction
         self._array: np.ndarray | None = None
 
     def array(self) -> np.ndarray:
-        """``a - b``, shape (N, nx) (read-only)."""
+        """``a`` minus the prediction, shape (N, nx) (read-only)."""
         if self._array is None:
-            self._array = local_errors(self.b, self.a)
+            b = self.b if self._prediction is None else self._prediction()
+            self._array = local_errors(b, self.a)
             self._array.setflags(write=False)
         return self._array
 
@@ -457,7 +471,7 @@ def _in_one_pass(
             continue
         kinds = tuple(dict.fromkeys(s.kind for k in keys for s in batches[k]))
         pair = pairs[part]()
-        got = windows[wkey].norms_of_sets(pair.a, pair.b, list(sets.values()), kinds)
+        got = windows[wkey].norms_of_sets(pair.a, pair.b, list(sets.values()), kinds, pair.hw)
         if got is None:
             continue
         by_set = dict(zip(sets, got, strict=True))
