@@ -87,7 +87,8 @@ def add_noise(
         magnitudes (1 m, 30 deg; 1 m/s, 30 deg/s).
     seed : int or numpy SeedSequence
         Seed. Positions and rates draw from independent streams spawned from it, so the
-        position noise of a seed does not change when ``v_pct`` does.
+        position noise of a seed does not change when ``v_pct`` does; a zero level
+        draws nothing (those components are the samples).
     distribution : {"uniform", "gaussian"}
         "uniform": white noise uniform in [-a, a] (the paper's). "gaussian": white
         normal noise with the same standard deviation a / sqrt(3).
@@ -110,28 +111,31 @@ def add_noise(
     from ._sums import add_scaled_draws  # numba, loaded on first use
 
     x = np.ascontiguousarray(clean.x, dtype=float)
-    noisy = np.empty_like(x)
-    quiet = np.flatnonzero(~np.isin(groups, tuple(streams)))
-    if quiet.size:  # the components without noise stay the samples
-        noisy[:, quiet] = x[:, quiet]
-    draws = np.empty(0)  # one buffer for both streams
-    for group, ss in streams.items():
+    n = x.shape[0]
+    # Per component: its stream (1 eta, 2 v; 0 none: no noise, or a zero level, which
+    # draws nothing) and its column among that stream's draws.
+    stream = np.zeros(x.shape[1], dtype=np.int64)
+    pos = np.zeros(x.shape[1], dtype=np.int64)
+    draws = []
+    low, span = (-1.0, 2.0) if distribution == "uniform" else (0.0, 1.0)
+    for g, (group, ss) in enumerate(streams.items(), start=1):
         cols = np.flatnonzero(groups == group)
-        if cols.size == 0:
+        if cols.size == 0 or not amp[cols].any():
+            draws.append(np.zeros((1, 1)))
             continue
+        stream[cols], pos[cols] = g, np.arange(cols.size)
         rng = np.random.default_rng(ss)
-        if draws.size != x.shape[0] * cols.size:
-            draws = np.empty((x.shape[0], cols.size))
-        draws = draws.reshape(x.shape[0], cols.size)
+        d = np.empty((n, cols.size))
         # The draws of uniform(-1, 1) (-1 + 2 r, r in [0, 1)) and of standard_normal()
         # / sqrt(3), scaled and added to the samples in one pass, without temporaries.
         if distribution == "uniform":
-            rng.random(out=draws)
-            add_scaled_draws(x, draws, cols, amp, -1.0, 2.0, noisy)
+            rng.random(out=d)
         else:
-            rng.standard_normal(out=draws)
-            np.divide(draws, math.sqrt(3.0), out=draws)
-            add_scaled_draws(x, draws, cols, amp, 0.0, 1.0, noisy)
+            rng.standard_normal(out=d)
+            np.divide(d, math.sqrt(3.0), out=d)
+        draws.append(d)
+    noisy = np.empty_like(x)
+    add_scaled_draws(x, draws[0], draws[1], stream, pos, amp, low, span, noisy)
     noisy.setflags(write=False)
     return clean.replace(x=noisy, clean=clean)
 

@@ -210,11 +210,18 @@ def window_sums(a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, 
 
 
 @njit(cache=True)
-def add_scaled_draws(x, draws, cols, amp, low, span, out):  # pragma: no cover - compiled
-    """``out[n, cols[k]] = x[n, cols[k]] + (low + span draws[n, k]) amp[cols[k]]``, each
-    operation rounded in that order (numpy's ``uniform(low, low + span)`` of the draws,
-    times the amplitude, added to the sample); the other columns of ``out`` untouched."""
+def add_scaled_draws(x, first, second, stream, pos, amp, low, span, out):  # pragma: no cover - compiled
+    """Every element of ``out``, shape (N, nx), in one pass: component c of row n is
+    ``x[n, c] + (low + span d[n, pos[c]]) amp[c]``, each operation rounded in that order
+    (numpy's ``uniform(low, low + span)`` of the draws d, times the amplitude, added to
+    the sample), with d = ``first`` where ``stream[c]`` is 1 and ``second`` where it is
+    2; ``x[n, c]`` where it is 0 (a component without noise)."""
     for n in range(x.shape[0]):
-        for k in range(cols.shape[0]):
-            c = cols[k]
-            out[n, c] = x[n, c] + (low + span * draws[n, k]) * amp[c]
+        for c in range(x.shape[1]):
+            g = stream[c]
+            if g == 0:
+                out[n, c] = x[n, c]
+            elif g == 1:
+                out[n, c] = x[n, c] + (low + span * first[n, pos[c]]) * amp[c]
+            else:
+                out[n, c] = x[n, c] + (low + span * second[n, pos[c]]) * amp[c]
