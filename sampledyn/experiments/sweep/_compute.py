@@ -28,6 +28,7 @@ This is the one place that decides it (:func:`prediction_inputs`).
 from __future__ import annotations
 
 import os
+import pickle
 import socket
 import time
 import warnings
@@ -208,22 +209,38 @@ def prediction_inputs(
     return model.plant, measured, None
 
 
+#: Stage inputs of the last grids this process computed, by signal (its pickle: a task
+#: brings its own copy of the same signal) and grid; a worker's chunks of one
+#: trajectory ask for the same ones. A few entries of (N - 1, nu) floats.
+_STAGE_INPUTS: dict[tuple[bytes, int, float, float, float], np.ndarray] = {}
+_STAGE_INPUTS_KEPT = 8
+
+
 class _MemoSignal:
-    """A signal whose stage inputs are computed once per grid: every seed of a chunk
-    asks for the same ``intersample(t, tau)``."""
+    """A signal whose stage inputs are computed once per grid: every seed of a chunk,
+    and every chunk of the trajectory on this worker, asks for the same
+    ``intersample(t, tau)`` (signals are pure: the same state, the same inputs)."""
 
     def __init__(self, signal: Any) -> None:
         self._signal = signal
         self.nu = signal.nu
-        self._cache: dict[tuple[int, float, float, float], np.ndarray] = {}
+        try:
+            self._name = pickle.dumps(signal)
+            self._cache = _STAGE_INPUTS
+        except (pickle.PicklingError, TypeError, AttributeError):  # a serial run: own memo
+            self._name, self._cache = b"", {}
 
     def __call__(self, t: Any) -> np.ndarray:
         return self._signal(t)
 
     def intersample(self, t_start: np.ndarray, tau: float) -> np.ndarray:
-        key = (t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
+        key = (self._name, t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
         if key not in self._cache:
-            self._cache[key] = self._signal.intersample(t_start, tau)
+            while len(self._cache) >= _STAGE_INPUTS_KEPT:
+                del self._cache[next(iter(self._cache))]  # the oldest
+            u = np.asarray(self._signal.intersample(t_start, tau), dtype=float)
+            u.setflags(write=False)
+            self._cache[key] = u
         return self._cache[key]
 
 
