@@ -316,14 +316,15 @@ class ErrorWindow:
         _check_kinds(kinds)
         from ._sums import window_sums  # numba, loaded on first use
 
-        plan = _prefix_plan(_component_tuples(a.shape[1], component_sets))
+        sets = _component_tuples(a.shape[1], component_sets)
+        cols, starts, dest, parent, skip = _prefix_plan(sets)
         leaves, joins = _pairwise_plan(n - first)
-        out = np.empty((3, len(plan[2])))
+        out = np.empty((3, dest.size))
         extra = int("mean" in kinds or "max" in kinds)
         fir = hw is not None
         window_sums(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
                     fir, _NO_WEIGHTS if hw is None else np.ascontiguousarray(hw, dtype=float),
-                    first, *plan, leaves, joins, extra, out)  # fmt: skip
+                    first, cols, starts, dest, parent, skip, leaves, joins, extra, out)  # fmt: skip
         if np.isnan(out[0]).any():  # a NaN row (the squares are >= 0: no inf - inf)
             return None
         size = n - first

@@ -118,7 +118,9 @@ def fir_rows(x, f, hw, lo, hi, out, shift):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _leaf_sums(sq, m, q, cols, starts, dest, parent, skip, extra, vals, leaf, out):  # pragma: no cover - compiled
+def _leaf_sums(
+    sq, m, q, cols, starts, dest, parent, skip, extra, vals, leaf, out
+):  # pragma: no cover - compiled
     """Leaf q of :func:`window_sums`: from the squares ``sq[j, r]`` of its m rows, each
     set's per-row sums (rows innermost: independent, vectorised; the additions of
     :func:`squares_of_sets`), their pairwise sum, and with ``extra`` their largest and
@@ -169,7 +171,9 @@ def _join_leaves(leaf, joins, extra, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def window_sums(a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, joins, extra, out):  # pragma: no cover - compiled
+def window_sums(
+    a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, joins, extra, out
+):  # pragma: no cover - compiled
     """Per component set k, over the rows ``first..N-1`` of the errors ``e = a - b``
     (shape (N, nx)), the sums a norm needs, in one pass and without the arrays:
     ``out[0, k]`` the sum of the per-row sums of squares (:func:`squares_of_sets`, the
@@ -210,7 +214,9 @@ def window_sums(a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, 
 
 
 @njit(cache=True)
-def add_scaled_draws(x, first, second, stream, pos, amp, low, span, out):  # pragma: no cover - compiled
+def add_scaled_draws(
+    x, first, second, stream, pos, amp, low, span, out
+):  # pragma: no cover - compiled
     """Every element of ``out``, shape (N, nx), in one pass: component c of row n is
     ``x[n, c] + (low + span d[n, pos[c]]) amp[c]``, each operation rounded in that order
     (numpy's ``uniform(low, low + span)`` of the draws d, times the amplitude, added to

@@ -21,7 +21,7 @@ import importlib
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 from .._checks import did_you_mean
 from ..exceptions import ArgumentError
@@ -313,7 +313,7 @@ def get_predictor(name: Any, argument: str | None = "method") -> Predictor:
             "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
             "(`sampledyn methods` lists them)."
         )
-    return m
+    return cast(Predictor, m)
 
 
 def available_methods() -> tuple[str, ...]:

@@ -483,6 +483,44 @@ def _in_one_pass(
     return found
 
 
+def _of_squares(
+    batch: list[NormSpec], use: Mapping[str, Any], window: ErrorWindow, sq: _Squares
+) -> dict[str, dict[str, float]]:
+    """Group name -> kind -> value of ``batch`` from the per-sample sums of squares
+    (where :func:`_in_one_pass` does not apply)."""
+    kinds = tuple(dict.fromkeys(s.kind for s in batch))
+    return {
+        name: dict.fromkeys(kinds, math.nan)
+        if _empty(comps)
+        else window.norms_of_squares(sq(comps), kinds)
+        for name, comps in use.items()
+    }
+
+
+def _batches(
+    specs: Sequence[NormSpec],
+    t: np.ndarray,
+    after: float,
+    masks: Mapping[NormSpec, np.ndarray | None],
+    windows: dict[Any, ErrorWindow],
+) -> dict[tuple[Any, ...], list[NormSpec]]:
+    """The specs by what they measure: norms over the same data, components and samples
+    (the last entry of the key: their window's, made here if it can be) share a pass."""
+    batches: dict[tuple[Any, ...], list[NormSpec]] = {}
+    for spec in specs:
+        where = masks.get(spec)
+        wkey = (id(t), id(where), after)
+        key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args,
+               wkey)  # fmt: skip
+        if key not in batches and not spec.counts and wkey not in windows:
+            try:
+                windows[wkey] = error_window(t, after, where)
+            except ValueError:
+                pass  # said by measure, per batch
+        batches.setdefault(key, []).append(spec)
+    return batches
+
+
 def measure(
     specs: Sequence[NormSpec],
     err: ErrorPair,
@@ -523,20 +561,8 @@ def measure(
     """
     groups = _groups(tuple(state_units))
     out: dict[NormSpec, tuple[dict[str, float], str]] = {}
-    # Norms over the same data, components and samples share one pass.
-    batches: dict[tuple[Any, ...], list[NormSpec]] = {}
     windows = {} if windows is None else windows  # the samples the norms count
-    for spec in specs:
-        where = masks.get(spec)
-        wkey = (id(t), id(where), after)
-        key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args,
-               wkey)  # fmt: skip
-        if key not in batches and not spec.counts and wkey not in windows:
-            try:
-                windows[wkey] = error_window(t, after, where)
-            except ValueError:
-                pass  # said below, per batch
-        batches.setdefault(key, []).append(spec)
+    batches = _batches(specs, t, after, masks, windows)
     noise_pair: list[ErrorPair] = []
 
     def noise() -> ErrorPair:
@@ -569,19 +595,9 @@ def measure(
                 continue
             per_group = found.get(key)
             if per_group is None:
-                kinds = tuple(dict.fromkeys(s.kind for s in batch))
-                wkey = key[-1]
-                if wkey not in windows:
-                    windows[wkey] = error_window(t, after, where)
-                window = windows[wkey]
-                per_group = {
-                    name: (
-                        dict.fromkeys(kinds, math.nan)
-                        if _empty(comps)
-                        else window.norms_of_squares(sq(comps), kinds)
-                    )
-                    for name, comps in use.items()
-                }
+                if key[-1] not in windows:
+                    windows[key[-1]] = error_window(t, after, where)
+                per_group = _of_squares(batch, use, windows[key[-1]], sq)
             for spec in batch:
                 out[spec] = ({name: v[spec.kind] for name, v in per_group.items()}, "")
         except ValueError as exc:
