@@ -132,9 +132,23 @@ def sums_of_squares(errors: np.ndarray, component_sets: Any) -> np.ndarray:
 
 
 def _component_tuples(nx: int, component_sets: Any) -> tuple[tuple[int, ...], ...]:
-    """The component sets of :func:`sums_of_squares` as tuples of indices in 0..nx-1.
+    """The component sets of :func:`sums_of_squares` as tuples of indices in 0..nx-1
+    (sets given as a tuple of tuples of int: checked once per nx and sets).
 
     Raises ValueError for a set that selects no component or one out of range."""
+    if isinstance(component_sets, tuple) and all(type(c) is tuple for c in component_sets):
+        return _checked_tuples(nx, component_sets)
+    return _checked(nx, component_sets)
+
+
+@lru_cache(maxsize=64)
+def _checked_tuples(
+    nx: int, component_sets: tuple[tuple[int, ...], ...]
+) -> tuple[tuple[int, ...], ...]:
+    return _checked(nx, component_sets)
+
+
+def _checked(nx: int, component_sets: Any) -> tuple[tuple[int, ...], ...]:
     cols = []
     for comps in component_sets:
         if comps is None or isinstance(comps, slice):

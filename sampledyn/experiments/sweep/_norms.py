@@ -471,7 +471,7 @@ def _in_one_pass(
             continue
         kinds = tuple(dict.fromkeys(s.kind for k in keys for s in batches[k]))
         pair = pairs[part]()
-        got = windows[wkey].norms_of_sets(pair.a, pair.b, list(sets.values()), kinds, pair.hw)
+        got = windows[wkey].norms_of_sets(pair.a, pair.b, tuple(sets), kinds, pair.hw)
         if got is None:
             continue
         by_set = dict(zip(sets, got, strict=True))
