@@ -12,7 +12,8 @@ Catch by kind::
   ``argument`` names the argument, file entry or log column it came from, so that a
   caller (the command line) can name its own option for it. Its kinds:
   :class:`LogFormatError`, :class:`VehicleParameterError`, :class:`SweepConfigError`,
-  :class:`WorkLimitError` (work or memory beyond a stated limit), :class:`FileContentError`.
+  :class:`WorkLimitError` (work or memory beyond a stated limit), :class:`FileContentError`,
+  :class:`MissingArgumentError` (an argument this input needs was not given).
 * :class:`NotAStoreError`, :class:`SingularPitchError` (``ValueError``).
 * :class:`NumericalError` (a ``RuntimeError``): a numerical method failed on these
   inputs; its kinds :class:`IntegrationError` (and its :class:`JumpRefused`: f jumps
@@ -36,6 +37,7 @@ __all__ = [
     "JacobianUnavailableError",
     "JumpRefused",
     "LogFormatError",
+    "MissingArgumentError",
     "NotAStoreError",
     "NumericalError",
     "SingularPitchError",
@@ -64,6 +66,12 @@ class ArgumentError(ValueError):
 class LogFormatError(ArgumentError):
     """A log that cannot be used as it is; ``argument`` names the culprit (a column,
     "t", or the option to change)."""
+
+
+class MissingArgumentError(ArgumentError):
+    """An argument this input needs was not given (a ROS bag read without a
+    ``mapping``); ``argument`` names it. The command line ends with exit status 2, as
+    for any missing option."""
 
 
 class VehicleParameterError(ArgumentError):

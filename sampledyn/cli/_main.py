@@ -291,7 +291,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         note = getattr(args, "on_interrupt", None)
         _fail(status, f"{kind}" + (f"; {note}" if note else ""), debug)
     except Exception as exc:
-        status, text = classify(exc, _options(parser, args.command))
+        status, text = classify(
+            exc, _options(parser, args.command), kept=getattr(args, "on_interrupt", None)
+        )
         _fail(status, text, debug)
     finally:
         if stop_notice is not None:

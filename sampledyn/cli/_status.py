@@ -13,7 +13,7 @@ import re
 import signal
 from typing import Any
 
-from ..exceptions import ArgumentError, NumericalError, UsageError
+from ..exceptions import ArgumentError, MissingArgumentError, NumericalError, UsageError
 
 __all__ = [
     "EXIT_BAD_VALUE",
@@ -141,8 +141,14 @@ def _with_options(text: str, argument: str, options: dict[str, str]) -> str:
     return text if own is None or _mentions(text, own) else f"{own}: {text}"
 
 
-def classify(exc: BaseException, options: dict[str, str] | None = None) -> tuple[int, str]:
+def classify(
+    exc: BaseException, options: dict[str, str] | None = None, kept: str | None = None
+) -> tuple[int, str]:
     """The exit status and the one-line message of ``exc``.
+
+    ``kept`` is what the command says of its finished work when it stops early (its
+    ``on_interrupt`` note: in a store, or not kept without ``--store``); a worker that
+    died ends with it.
 
     The one place where library errors meet options: an
     :class:`~sampledyn.exceptions.ArgumentError` names its ``argument``, and when the
@@ -155,15 +161,14 @@ def classify(exc: BaseException, options: dict[str, str] | None = None) -> tuple
     import sqlite3
 
     status: int
-    if isinstance(exc, UsageError):
+    if isinstance(exc, UsageError | MissingArgumentError):
         status, text = EXIT_USAGE, str(exc)
     elif _broken_pool(exc):
         status, text = (
             EXIT_UNAVAILABLE,
-            (
-                "a worker process died (killed by a signal, or out of memory) while computing "
-                "cells; the finished cells are kept: rerun the same command to compute the rest"
-            ),
+            "a worker process died (killed by a signal, or out of memory) while computing "
+            "cells; "
+            + (kept or "the finished cells are kept: rerun the same command to compute the rest"),
         )
     elif isinstance(exc, OSError) and exc.errno == errno.EBADF and exc.filename is None:
         status, text = EXIT_FILE, "standard output is closed: the output has nowhere to go"

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import LogFormatError
+from ..exceptions import LogFormatError, MissingArgumentError
 from ..models import Model
 from ._mapping import check_keys, load_toml
 from ._t200 import T200_VOLTAGES, t200_deadband, t200_rpm
@@ -111,7 +111,7 @@ def mapping_section(
     if not raw and section in _DEFAULTS:
         raw = {section: copy.deepcopy(_DEFAULTS[section])}
     if not raw:
-        raise LogFormatError(
+        raise MissingArgumentError(
             "mapping",
             f"{src}: {what} needs a mapping file naming its topics and thrusters; copy and "
             f"change {MAPPING_EXAMPLES[section][1]} (docs/logs.md).",

@@ -141,7 +141,7 @@ def _store_with_rows(path: Path, n: int) -> Path:
                 for i in range(n)
             ]
         )  # fmt: skip
-        st.finish_run(run, "complete", n, 0)
+        st.finish_run(run, "complete")
     return path
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from sampledyn.cli import main
 from sampledyn.cli._main import _one_line_warnings
-from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_INTERRUPTED, EXIT_USAGE
+from sampledyn.cli._status import EXIT_BAD_VALUE, EXIT_INTERRUPTED, EXIT_UNAVAILABLE, EXIT_USAGE
 
 
 def _fails(args: list[str], capsys) -> tuple[int, str]:
@@ -94,6 +94,26 @@ def test_ctrl_c_without_store_says_nothing_was_kept(monkeypatch, capsys, tmp_pat
     status, err = _fails(["-q", "reproduce", "fig2", "--out", str(tmp_path)], capsys)
     assert status == EXIT_INTERRUPTED
     assert "interrupted (Ctrl-C)" in err and "were not kept" in err and "--store FILE" in err
+
+
+@pytest.mark.parametrize("store", [False, True])
+def test_a_dead_worker_says_where_the_finished_cells_are(store, monkeypatch, capsys, tmp_path):
+    from concurrent.futures.process import BrokenProcessPool
+
+    from sampledyn.experiments._studies import StudyDefinition
+
+    def worker_died(self, *args, **kwargs):
+        raise BrokenProcessPool("A process in the process pool was terminated abruptly")
+
+    monkeypatch.setattr(StudyDefinition, "run", worker_died)
+    db = tmp_path / "r.db"
+    extra = ["--store", str(db)] if store else []
+    status, err = _fails(["-q", "reproduce", "fig2", "--out", str(tmp_path), *extra], capsys)
+    assert status == EXIT_UNAVAILABLE and "a worker process died" in err
+    if store:
+        assert f"the finished cells are in {db}; rerun the same command" in err
+    else:
+        assert "were not kept" in err and "are kept" not in err
 
 
 def test_each_warning_text_shows_once_per_command():

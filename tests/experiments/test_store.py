@@ -380,9 +380,28 @@ def test_a_transaction_left_open_by_an_interrupt_does_not_stop_marking_the_run(t
     with ResultStore(tmp_path / "r.db") as st:
         run = st.start_run(backend="in-process", planned=3, skipped=0, config={})
         st.connection().execute("BEGIN IMMEDIATE")  # as the interrupted write left it
-        st.finish_run(run, "interrupted", 0, 0)
+        st.finish_run(run, "interrupted")
         [(status,)] = st.connection().execute("SELECT status FROM runs").fetchall()
     assert status == "interrupted"
+
+
+def test_a_run_is_marked_with_the_cells_stored_under_it(tmp_path):
+    """A SIGTERM between a write's commit and its caller's count left a run's "computed"
+    short of its stored cells once (60 stored, 30 counted): the store counts them."""
+
+    def cell(key: str, run: str, status: str) -> dict:
+        return {"key": key, "run_id": run, "computed_at": 0.0, "status": status,
+                "version": "0", "method": "AB1", "config": "{}"}  # fmt: skip
+
+    with ResultStore(tmp_path / "r.db") as st:
+        run = st.start_run(backend="in-process", planned=4, skipped=0, config={})
+        other = st.start_run(backend="in-process", planned=4, skipped=0, config={})
+        st.write([cell("a", run, "ok"), cell("b", run, "error"), cell("c", run, "ok")])
+        st.write([cell("d", other, "ok")])
+        st.finish_run(run, "interrupted")  # no count from the caller
+        st.finish_run(other, "interrupted")
+        rows = st.connection().execute("SELECT run_id, computed, failed FROM runs").fetchall()
+    assert {r: (c, f) for r, c, f in rows} == {run: (3, 1), other: (1, 0)}
 
 
 # -- the generic cell: schema 3, views per kind, older stores ---------------------------

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 import sampledyn as sd
 from sampledyn.cli import main
-from sampledyn.exceptions import LogFormatError
+from sampledyn.exceptions import LogFormatError, MissingArgumentError
 from sampledyn.logs import read_log
 from sampledyn.logs._t200 import t200_rpm
 
@@ -67,6 +67,21 @@ def test_ros2_bag_through_the_documented_command(run, tmp_path, capsys):
     out = capsys.readouterr().out
     assert code == 0 and "sampling rule: states at the stamps of the state message" in out
     assert "RK4" in out and "uniform, h = 0.1 s" in out
+
+
+def test_a_bag_without_a_mapping_is_a_missing_option(run, tmp_path, capsys):
+    """A bag names no states by itself: without ``mapping`` the library says which
+    argument is missing, and the command ends as for a missing option (status 2)."""
+    vehicle = run[0]
+    bag = write_ros2_bag(tmp_path / "bluerov2_bag", run)
+    with pytest.raises(MissingArgumentError, match="needs a mapping file") as exc:
+        read_log(bag, vehicle)
+    assert exc.value.argument == "mapping"
+    with pytest.raises(SystemExit) as stop:
+        main(["evaluate", "--data", str(bag), "--vehicle", "bluerov2_heavy"])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and err.startswith("sampledyn: error: --mapping: ")
+    assert "examples/ros2_bluerov2_heavy.toml" in err and err.count("\n") == 1
 
 
 def test_a_ros_yaw_of_zero_faces_east(tmp_path):

@@ -197,7 +197,7 @@ def test_every_exception_lives_in_one_module():
                                if inspect.isclass(c) and issubclass(c, Exception)
                                and c.__module__ == module}  # fmt: skip
     assert {c.__module__ for c in sampledyn_ones} == {"sampledyn.exceptions"}
-    assert len(sd.exceptions.__all__) == 16
+    assert len(sd.exceptions.__all__) == 17
     assert issubclass(sd.exceptions.SweepConfigError, sd.exceptions.ArgumentError)
 
 
@@ -213,5 +213,7 @@ def test_the_public_surface_is_curated():
     # unreadable files (FileContentError) and of an unsafe kernel cache
     # (UnsafeCacheError), which the one exceptions module must hold, and
     # sampledyn.memory_limit, the one way to raise the memory limit from code.
+    # 169: MissingArgumentError, an input that needs an argument not given (a ROS bag
+    # without a mapping), which the command line ends with exit 2 like a missing option.
     total = sum(len(importlib.import_module(m).__all__) for m in PUBLIC_MODULES)
-    assert total <= 168, total
+    assert total <= 169, total

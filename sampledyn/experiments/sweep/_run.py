@@ -357,7 +357,7 @@ class MemoryStore:
             self.cells[c["key"]] = c
         return len(cells)
 
-    def finish_run(self, run_id: str, status: str, computed: int, failed: int, **_: Any) -> None:
+    def finish_run(self, run_id: str, status: str, **_: Any) -> None:
         return None
 
     def forget_run(self, run_id: str) -> None:
@@ -643,8 +643,8 @@ def _record(st: Any, run_id: str, outcome: str, tally: _Tally) -> None:
             st.forget_run(run_id)
         else:
             st.finish_run(
-                run_id, outcome, tally.computed, tally.failed, skipped=tally.skipped,
-                elsewhere=tally.elsewhere, duplicates=tally.duplicates,
+                run_id, outcome, skipped=tally.skipped, elsewhere=tally.elsewhere,
+                duplicates=tally.duplicates,
             )  # fmt: skip
     except OSError:
         if outcome == "complete":

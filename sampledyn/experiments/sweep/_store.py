@@ -815,16 +815,24 @@ class ResultStore:
         self,
         run_id: str,
         status: str,
-        computed: int,
-        failed: int,
         *,
         skipped: int | None = None,
         elsewhere: int = 0,
         duplicates: int = 0,
     ) -> None:
         """Mark a run "complete", "interrupted" or "failed", with its counts, and
-        release its claims."""
+        release its claims.
+
+        The run's ``computed`` and ``failed`` counts are those of the cells stored under
+        its id, counted here in the same transaction: a run stopped (SIGTERM, Ctrl-C)
+        after a write committed but before its caller counted the rows still reports
+        every cell it stored.
+        """
         with _translated(self.path), self._transaction():
+            computed, failed = self._conn.execute(
+                "SELECT COUNT(*), COALESCE(SUM(status <> 'ok'), 0) FROM cells WHERE run_id = ?",
+                (run_id,),
+            ).fetchone()
             self._conn.execute(
                 "UPDATE runs SET finished_at = ?, status = ?, computed = ?, failed = ?, "
                 "skipped = COALESCE(?, skipped), elsewhere = ?, duplicates = ? WHERE run_id = ?",
