@@ -10,6 +10,7 @@ other units (e.g. thruster rpm states) get no noise.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -66,6 +67,22 @@ def noise_amplitudes(state_units: tuple[str, ...], eta_pct: float, v_pct: float)
             group, ref = NOISE_REFERENCE[unit]
             amp[i] = (eta_pct if group == "eta" else v_pct) / 100.0 * ref
     return amp
+
+
+_SCRATCH = threading.local()
+
+
+def _scratch(slot: int, shape: tuple[int, int]) -> np.ndarray:
+    """A float64 buffer of ``shape`` for the draws of stream ``slot``, kept per thread
+    and reused by the next call of that shape: the draws are read only inside
+    :func:`add_noise`, and a new buffer of some MB per call costs its page faults."""
+    kept = getattr(_SCRATCH, "buffers", None)
+    if kept is None:
+        kept = _SCRATCH.buffers = {}
+    buf = kept.get(slot)
+    if buf is None or buf.shape != shape:
+        buf = kept[slot] = np.empty(shape)
+    return buf
 
 
 def add_noise(
@@ -125,7 +142,7 @@ def add_noise(
             continue
         stream[cols], pos[cols] = g, np.arange(cols.size)
         rng = np.random.default_rng(ss)
-        d = np.empty((n, cols.size))
+        d = _scratch(g, (n, cols.size))
         # The draws of uniform(-1, 1) (-1 + 2 r, r in [0, 1)) and of standard_normal()
         # / sqrt(3), scaled and added to the samples in one pass, without temporaries.
         if distribution == "uniform":
