@@ -317,8 +317,9 @@ class ErrorWindow:
         as :func:`sampledyn._sums.fir_rows` forms it (an Adams-type rule).
 
         Returns None where that pass does not apply (then :meth:`norms_of_squares`):
-        a non-uniform grid (weighted norms), a window that is not the samples from some
-        n on (a mask), a row without a prediction in it (NaN, or k < s with ``hw``).
+        the kinds "max" and "mean" (not sums of the squares), a non-uniform grid
+        (weighted norms), a window that is not the samples from some n on (a mask), a
+        row without a prediction in it (NaN, or k < s with ``hw``).
         Raises ValueError as :func:`sums_of_squares` for a set that selects nothing."""
         if self.span is not None or not isinstance(self.rows, slice):
             return None
@@ -328,24 +329,23 @@ class ErrorWindow:
         if hw is not None and (first < hw.shape[1] or hw.shape[0] not in (1, n - hw.shape[1])):
             return None
         _check_kinds(kinds)
+        if "max" in kinds or "mean" in kinds:  # not sums of the squares
+            return None
         from ._sums import window_sums  # numba, loaded on first use
+        from .models._base import readonly as ro
 
         sets = _component_tuples(a.shape[1], component_sets)
         cols, starts, dest, parent, skip = _prefix_plan(sets)
         leaves, joins = _pairwise_plan(n - first)
-        out = np.empty((3, dest.size))
-        extra = int("mean" in kinds or "max" in kinds)
-        fir = hw is not None
-        window_sums(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
-                    fir, _NO_WEIGHTS if hw is None else np.ascontiguousarray(hw, dtype=float),
-                    first, cols, starts, dest, parent, skip, leaves, joins, extra, out)  # fmt: skip
-        if np.isnan(out[0]).any():  # a NaN row (the squares are >= 0: no inf - inf)
+        out = np.empty(dest.size)
+        # Read-only views of every input (the samples are, a prediction may not be):
+        # one compiled specialisation whatever the caller's flags.
+        window_sums(ro(a), ro(b), hw is not None, ro(_NO_WEIGHTS if hw is None else hw),
+                    first, cols, starts, dest, parent, skip, leaves, joins, out)  # fmt: skip
+        if np.isnan(out).any():  # a NaN row (the squares are >= 0: no inf - inf)
             return None
         size = n - first
-        return [
-            _kinds_of(kinds, float(out[0, k]), size, float(out[1, k]), lambda k=k: float(out[2, k]))
-            for k in range(out.shape[1])
-        ]
+        return [_kinds_of(kinds, float(total), size, math.nan, None) for total in out]
 
     def _norms(self, sq: np.ndarray, kinds: tuple[str, ...]) -> dict[str, float]:
         """The kinds from the sums of squares of the window's samples (NaN: none)."""

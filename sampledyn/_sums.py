@@ -68,33 +68,7 @@ def squares_of_sets(e, cols, starts, dest, parent, skip, out):  # pragma: no cov
                 out[dest[k], lo + r] = acc[r]
 
 
-@njit(cache=True)
-def _pairwise_leaf(v, m):  # pragma: no cover - compiled
-    """numpy's pairwise sum of ``v[:m]``, m <= PAIRWISE_BLOCK (one leaf of its tree)."""
-    if m < 8:
-        res = 0.0
-        for i in range(m):
-            res += v[i]
-        return res
-    r0, r1, r2, r3 = v[0], v[1], v[2], v[3]
-    r4, r5, r6, r7 = v[4], v[5], v[6], v[7]
-    top = m - m % 8
-    for i in range(8, top, 8):
-        r0 += v[i]
-        r1 += v[i + 1]
-        r2 += v[i + 2]
-        r3 += v[i + 3]
-        r4 += v[i + 4]
-        r5 += v[i + 5]
-        r6 += v[i + 6]
-        r7 += v[i + 7]
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    for i in range(top, m):
-        res += v[i]
-    return res
-
-
-@njit(cache=True)
+@njit  # compiled into its callers (cached with them)
 def fir_rows(x, f, hw, lo, hi, out, shift):  # pragma: no cover - compiled
     """``out[k - shift] = x[k-1] + sum_i hw[k-s, i] f[k-1-i]`` for k = lo..hi-1 (lo >= s;
     ``hw[0]`` on every row if hw has one row), each product and sum rounded in that
@@ -118,70 +92,17 @@ def fir_rows(x, f, hw, lo, hi, out, shift):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _leaf_sums(
-    sq, m, q, cols, starts, dest, parent, skip, extra, vals, leaf, out
-):  # pragma: no cover - compiled
-    """Leaf q of :func:`window_sums`: from the squares ``sq[j, r]`` of its m rows, each
-    set's per-row sums (rows innermost: independent, vectorised; the additions of
-    :func:`squares_of_sets`), their pairwise sum, and with ``extra`` their largest and
-    the pairwise sum of their roots."""
-    for k in range(starts.shape[0] - 1):
-        acc = vals[dest[k]]
-        i0 = starts[k] + skip[k]
-        if parent[k] >= 0:
-            prev = vals[parent[k]]
-            for r in range(m):
-                acc[r] = prev[r]
-        else:
-            sc = sq[cols[i0]]
-            for r in range(m):
-                acc[r] = sc[r]
-            i0 += 1
-        for i in range(i0, starts[k + 1]):
-            sc = sq[cols[i]]
-            for r in range(m):
-                acc[r] += sc[r]
-    for k in range(starts.shape[0] - 1):
-        v = vals[k]
-        leaf[0, k, q] = _pairwise_leaf(v, m)
-        if extra:
-            mx = out[1, k]
-            for r in range(m):
-                mx = max(mx, v[r])
-            out[1, k] = mx
-            for r in range(m):
-                v[r] = np.sqrt(v[r])
-            leaf[1, k, q] = _pairwise_leaf(v, m)
-
-
-@njit(cache=True)
-def _join_leaves(leaf, joins, extra, out):  # pragma: no cover - compiled
-    """The leaves' sums added up the pairwise tree (``joins``) into ``out[0]`` (and the
-    roots' into ``out[2]`` with ``extra``)."""
-    n_sets = leaf.shape[1]
-    join = np.empty(joins.shape[0])
-    for s in range(1 + extra):
-        for k in range(n_sets):
-            for j in range(joins.shape[0]):
-                left, right = joins[j, 0], joins[j, 1]
-                a = leaf[s, k, left] if left >= 0 else join[-1 - left]
-                b = leaf[s, k, right] if right >= 0 else join[-1 - right]
-                join[j] = a + b
-            out[2 * s, k] = join[joins.shape[0] - 1] if joins.shape[0] else leaf[s, k, 0]
-
-
-@njit(cache=True)
-def window_sums(
-    a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, joins, extra, out
+def window_sums(  # noqa: C901 - one function: each compiled one costs compile time
+    a, b, fir, hw, first, cols, starts, dest, parent, skip, leaves, joins, out
 ):  # pragma: no cover - compiled
     """Per component set k, over the rows ``first..N-1`` of the errors ``e = a - b``
-    (shape (N, nx)), the sums a norm needs, in one pass and without the arrays:
-    ``out[0, k]`` the sum of the per-row sums of squares (:func:`squares_of_sets`, the
-    same bits), as ``np.sum`` adds them (numpy's pairwise tree: ``leaves``, rows
-    (offset, count) from ``first``; ``joins``, node pairs added in order, a node being
-    leaf k >= 0 or join -1 - j); with ``extra`` ``out[1, k]`` their largest and
-    ``out[2, k]`` the pairwise sum of their square roots. A NaN row makes ``out[0, k]``
-    NaN (the squares are >= 0).
+    (shape (N, nx)), ``out[k]`` = the sum of the per-row sums of squares
+    (:func:`squares_of_sets`, the same bits) as ``np.sum`` adds them, in one pass and
+    without the arrays: numpy's pairwise tree, ``leaves`` rows (offset, count <=
+    PAIRWISE_BLOCK) from ``first``, each summed with 8 accumulators, and ``joins``
+    node pairs added in order (a node: leaf k >= 0, or join -1 - j). A NaN row makes
+    ``out[k]`` NaN (the squares are >= 0). One function, not several: each compiled
+    function costs the first run its compile time.
 
     With ``fir`` the prediction ``b`` is not an array but formed here by
     :func:`fir_rows` from ``a`` (the samples), ``b`` (f at the samples) and ``hw``
@@ -192,12 +113,13 @@ def window_sums(
     sq = np.empty((nx, block))
     pred = np.empty((block, nx))
     vals = np.empty((n_sets, block))
-    leaf = np.empty((2, n_sets, leaves.shape[0]))
-    for k in range(n_sets):
-        out[1, k] = -np.inf
+    leaf = np.empty((n_sets, leaves.shape[0]))
+    join = np.empty(joins.shape[0])
     for q in range(leaves.shape[0]):
         lo = first + leaves[q, 0]
         m = leaves[q, 1]
+        # The squares of the leaf's rows once, by component; then each set's per-row
+        # sums with the rows innermost (independent: vectorised), as squares_of_sets.
         if fir:
             fir_rows(a, b, hw, lo, lo + m, pred, lo)
             for r in range(m):
@@ -209,8 +131,52 @@ def window_sums(
                 for j in range(nx):
                     x = a[lo + r, j] - b[lo + r, j]
                     sq[j, r] = x * x
-        _leaf_sums(sq, m, q, cols, starts, dest, parent, skip, extra, vals, leaf, out)
-    _join_leaves(leaf, joins, extra, out)
+        for k in range(n_sets):
+            acc = vals[dest[k]]
+            i0 = starts[k] + skip[k]
+            if parent[k] >= 0:
+                prev = vals[parent[k]]
+                for r in range(m):
+                    acc[r] = prev[r]
+            else:
+                sc = sq[cols[i0]]
+                for r in range(m):
+                    acc[r] = sc[r]
+                i0 += 1
+            for i in range(i0, starts[k + 1]):
+                sc = sq[cols[i]]
+                for r in range(m):
+                    acc[r] += sc[r]
+        for k in range(n_sets):  # numpy's sum of a leaf (pairwise_sum, n <= 128)
+            v = vals[k]
+            if m < 8:
+                res = 0.0
+                for r in range(m):
+                    res += v[r]
+            else:
+                r0, r1, r2, r3 = v[0], v[1], v[2], v[3]
+                r4, r5, r6, r7 = v[4], v[5], v[6], v[7]
+                top = m - m % 8
+                for r in range(8, top, 8):
+                    r0 += v[r]
+                    r1 += v[r + 1]
+                    r2 += v[r + 2]
+                    r3 += v[r + 3]
+                    r4 += v[r + 4]
+                    r5 += v[r + 5]
+                    r6 += v[r + 6]
+                    r7 += v[r + 7]
+                res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+                for r in range(top, m):
+                    res += v[r]
+            leaf[k, q] = res
+    for k in range(n_sets):  # up the tree
+        for j in range(joins.shape[0]):
+            left, right = joins[j, 0], joins[j, 1]
+            x = leaf[k, left] if left >= 0 else join[-1 - left]
+            y = leaf[k, right] if right >= 0 else join[-1 - right]
+            join[j] = x + y
+        out[k] = join[joins.shape[0] - 1] if joins.shape[0] else leaf[k, 0]
 
 
 @njit(cache=True)

@@ -114,14 +114,16 @@ def test_sum_of_squares_orders():
 
 SETS = (slice(0, 6), slice(6, 12), slice(0, 12), slice(0, 3), slice(6, 9),
         np.array([0, 1, 2, 6, 7, 8]), [11, 0, 5], [4])  # fmt: skip
+SUMMED = ("rms", "l2_over_n", "l2")  # the kinds that are sums of the squares
 
 
 @pytest.mark.parametrize("n", [1, 7, 8, 128, 129, 1000, 8193, 50001])
 def test_norms_in_one_pass_are_those_of_the_squares(n):
     """ErrorWindow.norms_of_sets (the errors a - b formed, squared and summed leaf by leaf
-    of numpy's pairwise tree, no arrays) gives every kind bit for bit as numpy's sums of
-    the per-sample squares: lengths around the leaf size (128) and the split rule."""
-    from sampledyn._local_errors import ERROR_NORMS, error_window, sums_of_squares
+    of numpy's pairwise tree, no arrays) gives the kinds that are sums of the squares bit
+    for bit as numpy's sums of the per-sample squares: lengths around the leaf size (128)
+    and the split rule. "max" and "mean" are left to the squares (None)."""
+    from sampledyn._local_errors import error_window, sums_of_squares
 
     rng = np.random.default_rng(n)
     a = rng.standard_normal((n, 12)) * np.exp(rng.uniform(-20, 20, (n, 12)))
@@ -129,17 +131,19 @@ def test_norms_in_one_pass_are_those_of_the_squares(n):
     t = 0.1 * np.arange(n)
     for after in (None, 0.3 * t[-1]):
         window = error_window(t, after)
-        got = window.norms_of_sets(a, b, SETS, ERROR_NORMS)
+        got = window.norms_of_sets(a, b, SETS, SUMMED)
         squares = sums_of_squares(a - b, SETS)
-        want = [window.norms_of_squares(squares[k], ERROR_NORMS) for k in range(len(SETS))]
+        want = [window.norms_of_squares(squares[k], SUMMED) for k in range(len(SETS))]
         assert got == want
+        for kinds in (("rms", "max"), ("mean",)):
+            assert window.norms_of_sets(a, b, SETS, kinds) is None
 
 
 def test_norms_in_one_pass_of_an_adams_prediction(rexrov_data):
     """With the weights of an Adams rule (sample_filter) the prediction is formed in the
     pass: the norms are those of predict()'s errors, bit for bit; rows without a
     prediction, a NaN, a mask or a non-uniform grid leave it to the squares (None)."""
-    from sampledyn._local_errors import ERROR_NORMS, error_window, local_errors
+    from sampledyn._local_errors import error_window, local_errors
 
     veh, _sig, data = rexrov_data
     window = error_window(data.t, data.t[len(data.t) // 3])
@@ -147,13 +151,13 @@ def test_norms_in_one_pass_of_an_adams_prediction(rexrov_data):
         method = sd.get_method(name)
         f, hw = method.sample_filter(veh, data)
         x_hat = sd.predict(name, veh, data)
-        want = [window.norms(local_errors(x_hat, data), ERROR_NORMS, c) for c in SETS]
-        assert window.norms_of_sets(data.x, f, SETS, ERROR_NORMS, hw) == want
-        assert window.norms_of_sets(data.x, x_hat, SETS, ERROR_NORMS) == want
-    assert error_window(data.t).norms_of_sets(data.x, f, SETS, ERROR_NORMS, hw) is None
+        want = [window.norms(local_errors(x_hat, data), SUMMED, c) for c in SETS]
+        assert window.norms_of_sets(data.x, f, SETS, SUMMED, hw) == want
+        assert window.norms_of_sets(data.x, x_hat, SETS, SUMMED) == want
+    assert error_window(data.t).norms_of_sets(data.x, f, SETS, SUMMED, hw) is None
     nan = np.array(data.x)
     nan[-1, 3] = np.nan
-    assert window.norms_of_sets(nan, f, SETS, ERROR_NORMS) is None
+    assert window.norms_of_sets(nan, f, SETS, SUMMED) is None
     keep = np.arange(data.n_samples) % 2 == 0
     assert error_window(data.t, None, keep).norms_of_sets(data.x, f, SETS) is None
     jitter = data.t + 1e-3 * (np.arange(data.n_samples) % 3)
