@@ -410,6 +410,18 @@ def uniform_step(data: Trajectory, method: str) -> float:
     return h
 
 
+def _sole_references() -> tuple[int, int]:
+    """What ``sys.getrefcount`` says, in this interpreter, of an array held by one local
+    name only, and of the base of a view held so (the counts of temporary references
+    differ between Python versions)."""
+    value = np.empty(2)[1:]
+    base = value.base
+    return sys.getrefcount(value), sys.getrefcount(base)
+
+
+_SOLE = _sole_references()  # (2, 3) on CPython 3.11-3.13
+
+
 def _cached(
     kind: str,
     model: Model,
@@ -429,14 +441,13 @@ def _cached(
     if hit is not None and hit[0] is model and hit[1] is data:
         return hit[2]
     value = np.asarray(compute(), dtype=float)
-    # Frozen in place when nothing else holds the array (a model returns a new one:
-    # referenced here and by getrefcount's argument; its base, if any, also by the
-    # array); copied when another object might write to it later.
+    # Frozen in place when nothing else holds the array (a model returns a new one);
+    # copied when another object might write to it later.
     base = value.base
     if (
         value.flags.writeable
-        and sys.getrefcount(value) <= 2
-        and (base is None or sys.getrefcount(base) <= 3)
+        and sys.getrefcount(value) <= _SOLE[0]
+        and (base is None or sys.getrefcount(base) <= _SOLE[1])
     ):
         value.setflags(write=False)
     else:
