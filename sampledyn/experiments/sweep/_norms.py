@@ -458,8 +458,9 @@ def _in_one_pass(
     windows: Mapping[Any, ErrorWindow],
 ) -> dict[tuple[Any, ...], dict[str, dict[str, float]]]:
     """Batch key -> group name -> kind -> value, for the batches (not counts) whose
-    norms one pass over each (errors, window) gives; those it cannot give (a mask that
-    keeps scattered samples, a NaN, a non-uniform grid) are left out."""
+    norms one pass over each (errors, window) gives; those it cannot give (the kinds
+    "max" and "mean", a mask that keeps scattered samples, a NaN, a non-uniform grid)
+    are left out."""
     together: dict[tuple[Any, ...], list[tuple[Any, ...]]] = {}
     for key, batch in batches.items():
         if not batch[0].counts:
