@@ -155,9 +155,11 @@ def _child_timeline(argv: list[str]) -> None:
     t_zero = float(os.environ["BENCH_T0"])
     log = Path(os.environ["BENCH_LOG"])
     marks: dict[str, float] = {}
+    cpu: dict[str, float] = {}
 
     def mark(name: str) -> None:
         marks.setdefault(name, time.time() - t_zero)
+        cpu.setdefault(name, time.process_time())
 
     import sampledyn.experiments.sweep._compute as compute
     import sampledyn.experiments.sweep._prediction as prediction
@@ -180,6 +182,22 @@ def _child_timeline(argv: list[str]) -> None:
     compute.compute_chunk = logged(compute.compute_chunk, "cells")
     prediction.simulate_trajectory = compute.simulate_trajectory  # the cell kind calls them
     prediction.compute_chunk = compute.compute_chunk
+    import sampledyn.report._fig7 as fig7_report
+
+    # (looked up by name when the thread starts; its CPU is the thread's own; a
+    # checkout from before it, --baseline, has none)
+    real_prepare = getattr(fig7_report, "prepare_fig7_report", None)
+
+    def prepare() -> None:
+        assert real_prepare is not None
+        w0, c0 = time.time() - t_zero, time.thread_time()
+        real_prepare()
+        with log.open("a") as fh:
+            fh.write(json.dumps(["main", "prepare", w0, time.time() - t_zero,
+                                 time.thread_time() - c0]) + "\n")  # fmt: skip
+
+    if real_prepare is not None:
+        fig7_report.prepare_fig7_report = prepare
     real_start = run_mod.start_pool
 
     def start_pool(*a: Any, **k: Any) -> Any:
@@ -206,6 +224,7 @@ def _child_timeline(argv: list[str]) -> None:
     marks["main process CPU"] = time.process_time() - c0
     with log.open("a") as fh:
         fh.write(json.dumps(["marks", marks]) + "\n")
+        fh.write(json.dumps(["cpu", cpu]) + "\n")
 
 
 def timeline(tmp: Path, extra: list[str]) -> dict[str, Any]:
@@ -222,13 +241,17 @@ def timeline(tmp: Path, extra: list[str]) -> dict[str, Any]:
     if done.returncode != 0:
         raise RuntimeError(f"the timeline run failed:\n{done.stderr}")
     marks: dict[str, float] = {}
+    cpu: dict[str, float] = {}
     tasks = []
     for line in log.read_text().splitlines():
         item = json.loads(line)
         if item[0] == "marks":
             marks = item[1]
+        elif item[0] == "cpu":
+            cpu = item[1]
         else:
             tasks.append(item)
+    prepared = [t for t in tasks if t[1] == "prepare"]
     sims = [t for t in tasks if t[1] == "simulate"]
     cells = [t for t in tasks if t[1] == "cells"]
     workers = sorted({t[0] for t in cells})
@@ -238,23 +261,41 @@ def timeline(tmp: Path, extra: list[str]) -> dict[str, Any]:
         "cells": (min(t[2] for t in cells), max(t[3] for t in cells)),
         "cells_cpu": {w: sum(t[4] for t in cells if t[0] == w) for w in workers},
         "chunks": len(cells),
+        "main_cpu": cpu,
+        "prepare": tuple(prepared[0][2:]) if prepared else None,
     }
 
 
 def phase_table(tl: dict[str, Any]) -> list[str]:
+    """The phases of the timeline run; the main process's CPU seconds from one time
+    stamp to the next where they are known (its threads included)."""
     m = tl["marks"]
     sim0, sim1, sim_cpu = tl["simulate"]
     c0, c1 = tl["cells"]
     cpu = tl["cells_cpu"]
+    mc = tl.get("main_cpu") or {}
+
+    def main_cpu(a: str, b: str) -> str:
+        return f"main {mc[b] - mc[a]:.2f} s CPU" if a in mc and b in mc else ""
+
     rows = [
-        ("start-up: interpreter, imports, options, plan", 0.0, m["plan done"], ""),
-        ("pool: kernels loaded, 2 workers forked", m["plan done"], m["pool started"], ""),
+        ("start-up: interpreter, imports, options, plan", 0.0, m["plan done"],
+         f"main {mc['plan done']:.2f} s CPU" if "plan done" in mc else ""),
+        ("pool: kernels loaded, 2 workers forked", m["plan done"], m["pool started"],
+         main_cpu("plan done", "pool started")),
         ("exact samples (one worker; certified)", sim0, sim1, f"{sim_cpu:.2f} s CPU"),
         (f"cells ({tl['chunks']} tasks on {len(cpu)} workers)", c0, c1,
          " + ".join(f"{v:.2f}" for v in cpu.values()) + " s CPU"),
-        ("results collected", c1, m["engine done"], ""),
-        ("output: summary, CSVs, figure, tables", m["engine done"], m["done"], ""),
+        ("results collected", c1, m["engine done"],
+         main_cpu("pool started", "engine done") + " (since the pool started)"
+         if mc else ""),
+        ("output: summary, CSVs, figure, tables", m["engine done"], m["done"],
+         main_cpu("engine done", "done")),
     ]  # fmt: skip
+    if tl.get("prepare") is not None:
+        p0, p1, p_cpu = tl["prepare"]
+        rows.insert(4, ("report prepared ahead (a thread of the main process)", p0, p1,
+                        f"{p_cpu:.2f} s CPU"))  # fmt: skip
     lines = ["| phase | from (s) | to (s) | wall (s) | CPU |", "|---|---|---|---|---|"]
     for name, a, b, note in rows:
         lines.append(f"| {name} | {a:.2f} | {b:.2f} | {b - a:.2f} | {note} |")

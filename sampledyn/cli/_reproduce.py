@@ -11,6 +11,8 @@ engine's grid (``SweepConfig``), when the grids are made, before anything runs.
 from __future__ import annotations
 
 import argparse
+import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -122,6 +124,37 @@ def _engine(args: argparse.Namespace, default_workers: int | None) -> dict[str, 
     return out
 
 
+class _Ahead:
+    """A study's report preparation (:attr:`StudyEntry.prepare`) in a daemon thread,
+    started when the engine has started (local workers forked: a fork must not copy a
+    thread in flight), so that it overlaps the cells; the report waits for it, so the
+    two never import the same modules at once. A failure is left to the report, which
+    meets it again where it is reported."""
+
+    def __init__(self, prepare: Callable[[], object] | None) -> None:
+        self._prepare = prepare
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        if self._prepare is None or self._thread is not None:
+            return
+        self._thread = threading.Thread(
+            target=self._run, name="sampledyn-report-prepare", daemon=True
+        )
+        self._thread.start()
+
+    def _run(self) -> None:
+        assert self._prepare is not None
+        try:
+            self._prepare()
+        except Exception:  # the report does the same work, and reports it
+            return
+
+    def wait(self) -> None:
+        if self._thread is not None:
+            self._thread.join()
+
+
 def _run(args: argparse.Namespace) -> int:
     entry = _studies()[args.study]
     _refuse_unused(args, entry, _options())
@@ -135,7 +168,12 @@ def _run(args: argparse.Namespace) -> int:
     def say(text: str) -> None:
         print(f"{entry.name}: {text}", flush=True)
 
-    output = definition.run(settings, configs=configs, progress=progress(args), say=say, **engine)
+    ahead = _Ahead(entry.prepare_function())
+    output = definition.run(
+        settings, configs=configs, progress=progress(args), say=say, on_start=ahead.start,
+        **engine,
+    )  # fmt: skip
+    ahead.wait()
     for line in entry.report_function()(output, out, store=args.store):
         print(line)
     return 0

@@ -196,6 +196,7 @@ class StudyDefinition:
         scheduler: str | None = None,
         progress: bool = False,
         say: Callable[[str], None] | None = None,
+        on_start: Callable[[], object] | None = None,
     ) -> StudyOutput:
         """Run the study on the engine.
 
@@ -215,13 +216,22 @@ class StudyDefinition:
             Show the engine's progress bar.
         say : callable, optional
             Called with one line per engine run (what it computed, found stored).
+        on_start : callable, optional
+            Called once, when the first engine run that computes cells has started
+            (:func:`~sampledyn.experiments.sweep.run_sweep`'s ``on_start``).
         """
         from .sweep._run import backend_options, run_study
 
         options = backend_options(workers, scheduler, progress)
         results = []
+        started = [] if on_start is None else [on_start]
+
+        def start() -> None:
+            if started:
+                started.pop()()
+
         for config in self.configs(settings) if configs is None else configs:
-            result = run_study(config, store, **options)
+            result = run_study(config, store, on_start=start, **options)
             if say is not None:
                 say(f"{config.vehicle}: {result.summary.describe(store)}")
             results.append(result)
@@ -253,6 +263,11 @@ class StudyEntry:
         (lines, files)``.
     workers : int or None
         Local worker processes by default (None: this process).
+    prepare : str, optional
+        ``"module:attribute"`` of a function without arguments that does ahead what
+        the report would do first and that does not depend on the results (imports,
+        matplotlib's fonts and text parser): ``reproduce`` runs it in a thread while
+        the workers compute the cells, so it does not add to the run's time.
     """
 
     name: str
@@ -261,6 +276,7 @@ class StudyEntry:
     definition: str
     report: str
     workers: int | None = None
+    prepare: str | None = None
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def take(self, name: str) -> Take | None:
@@ -276,6 +292,13 @@ class StudyEntry:
     def report_function(self) -> Callable[..., Any]:
         """Its report function (imported now)."""
         return _load(self.report)
+
+    def prepare_function(self) -> Callable[[], object] | None:
+        """Its report's preparation (:attr:`prepare`; imported when called), or None."""
+        if self.prepare is None:
+            return None
+        ref = self.prepare
+        return lambda: _load(ref)()
 
 
 STUDIES: dict[str, StudyEntry] = {}
@@ -379,6 +402,7 @@ register_study(
         "sampledyn.experiments._rov:FIG7",
         "sampledyn.report._fig7:fig7_report",
         workers=2,
+        prepare="sampledyn.report._fig7:prepare_fig7_report",
     )
 )
 register_study(

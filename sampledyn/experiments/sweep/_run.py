@@ -23,7 +23,7 @@ import os
 import threading
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -256,10 +256,12 @@ def _claimed_chunks(
     tally: _Tally,
     lease: float,
     progress: list[Any],
+    order: list[str] | None = None,
 ) -> Iterator[Chunk]:
     """Chunks of cells this run has claimed, claimed one chunk at a time as the
     backend asks for the next (so concurrent runs interleave). Cells found stored or
-    claimed elsewhere advance the progress bar in ``progress``, once there is one."""
+    claimed elsewhere advance the progress bar in ``progress``, once there is one.
+    The key of every planned cell is appended to ``order`` (if given), in plan order."""
     batch: list[PlannedGroup] = []
 
     def claim() -> Chunk | None:
@@ -285,6 +287,8 @@ def _claimed_chunks(
         return Chunk(first.traj_key, first.h, tuple(groups), first.sim_key) if groups else None
 
     for group in study.iter_groups():
+        if order is not None:
+            order.extend(c.key for c in group.cells)
         if batch and batch[0].traj_key != group.traj_key:
             chunk = claim()
             if chunk is not None:
@@ -387,6 +391,8 @@ def run_sweep(
     connect_timeout: float = 30.0,
     max_cells: int | None = None,
     lease: float = LEASE_SECONDS,
+    on_start: Callable[[], object] | None = None,
+    order: list[str] | None = None,
 ) -> SweepSummary:
     """Compute the cells of a sweep that the store lacks, and store them.
 
@@ -417,6 +423,18 @@ def run_sweep(
         :data:`DEFAULT_MAX_CELLS`).
     lease : float
         Seconds without a heartbeat after which another run's claims are taken over.
+    on_start : callable, optional
+        Called once without arguments when the computation has started (local
+        workers forked, the progress bar shown), before the first result is waited
+        for; not called when there is nothing to compute. It should return at once:
+        a caller with work that can overlap the cells (e.g. a report's imports)
+        starts a thread of its own there (after the fork, which must not copy a
+        thread in flight).
+    order : list, optional
+        The key of every planned cell is appended to it, in plan order, as the run
+        lists the grid (all of them unless the run stops early; none for a dry run):
+        :func:`run_study` returns the cells in that order without listing the grid
+        again.
 
     Returns
     -------
@@ -482,8 +500,9 @@ def run_sweep(
         if workers is not None:
             backend = f"processes:{workers}"
         summary = _run(
-            study, st, backend, workers, client, groups_per_chunk, retry_failed, progress, lease
-        )
+            study, st, backend, workers, client, groups_per_chunk, retry_failed, progress, lease,
+            on_start, order,
+        )  # fmt: skip
     except BaseException:
         if own and st.discard_if_unused():
             own = False
@@ -568,6 +587,8 @@ def _run(
     retry_failed: bool,
     progress: bool,
     lease: float,
+    on_start: Callable[[], object] | None = None,
+    order: list[str] | None = None,
 ) -> SweepSummary:
     t_start = time.perf_counter()
     st.ensure_kind(study.setup.kind)
@@ -576,7 +597,9 @@ def _run(
     )
     tally = _Tally()
     bar: list[Any] = []  # the progress bar, once there is one
-    claimed = _claimed_chunks(study, st, run_id, groups_per_chunk, retry_failed, tally, lease, bar)
+    claimed = _claimed_chunks(
+        study, st, run_id, groups_per_chunk, retry_failed, tally, lease, bar, order
+    )
     results: Iterator[ChunkResult] | None = None
     pool = None
     heartbeat = None
@@ -609,6 +632,8 @@ def _run(
 
             bar.append(tqdm(total=study.n_cells, desc="sweep", unit="cell", smoothing=0.05))
             bar[0].update(tally.skipped + tally.elsewhere)
+        if on_start is not None:
+            on_start()
         for res in results:
             _store_result(res, study, st, run_id, tally)
             if bar:
@@ -731,7 +756,7 @@ def run_study(
         them in this process.
     **options
         Passed to :func:`run_sweep` (``workers``, ``scheduler``, ``progress``,
-        ``retry_failed``, ``max_cells``, ``groups_per_chunk``).
+        ``retry_failed``, ``max_cells``, ``groups_per_chunk``, ``on_start``).
 
     Returns
     -------
@@ -745,8 +770,10 @@ def run_study(
     cfg = config if isinstance(config, SweepConfig) else load_config(config)
     study = plan_study(cfg)
     mem = MemoryStore() if store is None else None
-    summary = run_sweep(study, mem if mem is not None else store, **options)
-    keys = [c.key for c in study.iter_cells()]
+    order: list[str] = []  # the cells' keys in plan order, as the run lists them
+    summary = run_sweep(study, mem if mem is not None else store, order=order, **options)
+    # (listed whole unless the run stopped early: a dry run lists none)
+    keys = order if len(order) == study.n_cells else [c.key for c in study.iter_cells()]
     if mem is not None:
         cells = mem.rows("cells", keys)
         trajs = mem.rows("trajectories", list(study.trajectories))
