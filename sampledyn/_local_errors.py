@@ -52,6 +52,7 @@ __all__ = [
 ]
 
 ERROR_NORMS = ("rms", "max", "l2_over_n", "l2", "mean")
+_NO_WEIGHTS = np.zeros((1, 0))  # hw of ErrorWindow.norms_of_sets for a plain pair
 
 
 def local_errors(
@@ -121,7 +122,33 @@ def sums_of_squares(errors: np.ndarray, component_sets: Any) -> np.ndarray:
     e = np.asarray(errors, dtype=float)
     if e.ndim != 2:
         raise ValueError(f"`errors` must have shape (N, nx), got {e.shape}.")
-    nx = e.shape[1]
+    from ._sums import squares_of_sets  # numba, loaded on first use
+
+    sets = _component_tuples(e.shape[1], component_sets)
+    cols_, starts, dest, parent, skip = _prefix_plan(sets)
+    out = np.empty((len(sets), e.shape[0]))
+    squares_of_sets(np.ascontiguousarray(e), cols_, starts, dest, parent, skip, out)
+    return out
+
+
+def _component_tuples(nx: int, component_sets: Any) -> tuple[tuple[int, ...], ...]:
+    """The component sets of :func:`sums_of_squares` as tuples of indices in 0..nx-1
+    (sets given as a tuple of tuples of int: checked once per nx and sets).
+
+    Raises ValueError for a set that selects no component or one out of range."""
+    if isinstance(component_sets, tuple) and all(type(c) is tuple for c in component_sets):
+        return _checked_tuples(nx, component_sets)
+    return _checked(nx, component_sets)
+
+
+@lru_cache(maxsize=64)
+def _checked_tuples(
+    nx: int, component_sets: tuple[tuple[int, ...], ...]
+) -> tuple[tuple[int, ...], ...]:
+    return _checked(nx, component_sets)
+
+
+def _checked(nx: int, component_sets: Any) -> tuple[tuple[int, ...], ...]:
     cols = []
     for comps in component_sets:
         if comps is None or isinstance(comps, slice):
@@ -133,13 +160,8 @@ def sums_of_squares(errors: np.ndarray, component_sets: Any) -> np.ndarray:
             idx = np.where(idx < 0, idx + nx, idx)
         if idx.size == 0:
             raise ValueError(f"component set {comps!r} selects no component of {nx}.")
-        cols.append(idx)
-    from ._sums import squares_of_sets  # numba, loaded on first use
-
-    cols_, starts, dest, parent, skip = _prefix_plan(tuple(tuple(int(i) for i in c) for c in cols))
-    out = np.empty((len(cols), e.shape[0]))
-    squares_of_sets(np.ascontiguousarray(e), cols_, starts, dest, parent, skip, out)
-    return out
+        cols.append(tuple(int(i) for i in idx))
+    return tuple(cols)
 
 
 @lru_cache(maxsize=64)
@@ -277,6 +299,54 @@ class ErrorWindow:
         _check_kinds(kinds)
         return self._norms(squares[self.rows], kinds)
 
+    def norms_of_sets(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        component_sets: Any,
+        kinds: tuple[str, ...] = ERROR_NORMS,
+        hw: np.ndarray | None = None,
+    ) -> list[dict[str, float]] | None:
+        """:meth:`norms` of the errors ``a - b`` (both shape (N, nx), float64; e.g. the
+        samples and a prediction) over each of ``component_sets``, from one compiled
+        pass over the window's samples that forms neither the errors nor their squares
+        as arrays: the same numbers bit for bit (the sums in numpy's pairwise order).
+
+        With ``hw`` (shape (1, s) or (N - s, s)), ``b`` is f at the samples ``a`` and the
+        prediction of row k is not an array either: ``a[k-1] + sum_i hw[., i] b[k-1-i]``
+        as :func:`sampledyn._sums.fir_rows` forms it (an Adams-type rule).
+
+        Returns None where that pass does not apply (then :meth:`norms_of_squares`):
+        the kinds "max" and "mean" (not sums of the squares), a non-uniform grid
+        (weighted norms), a window that is not the samples from some n on (a mask), a
+        row without a prediction in it (NaN, or k < s with ``hw``).
+        Raises ValueError as :func:`sums_of_squares` for a set that selects nothing."""
+        if self.span is not None or not isinstance(self.rows, slice):
+            return None
+        first, n = self.rows.indices(self.n_samples)[:2]
+        if n <= first or a.shape != b.shape or a.shape[0] != self.n_samples:
+            return None
+        if hw is not None and (first < hw.shape[1] or hw.shape[0] not in (1, n - hw.shape[1])):
+            return None
+        _check_kinds(kinds)
+        if "max" in kinds or "mean" in kinds:  # not sums of the squares
+            return None
+        from ._sums import window_sums  # numba, loaded on first use
+        from .models._base import readonly as ro
+
+        sets = _component_tuples(a.shape[1], component_sets)
+        cols, starts, dest, parent, skip = _prefix_plan(sets)
+        leaves, joins = _pairwise_plan(n - first)
+        out = np.empty(dest.size)
+        # Read-only views of every input (the samples are, a prediction may not be):
+        # one compiled specialisation whatever the caller's flags.
+        window_sums(ro(a), ro(b), hw is not None, ro(_NO_WEIGHTS if hw is None else hw),
+                    first, cols, starts, dest, parent, skip, leaves, joins, out)  # fmt: skip
+        if np.isnan(out).any():  # a NaN row (the squares are >= 0: no inf - inf)
+            return None
+        size = n - first
+        return [_kinds_of(kinds, float(total), size, math.nan, None) for total in out]
+
     def _norms(self, sq: np.ndarray, kinds: tuple[str, ...]) -> dict[str, float]:
         """The kinds from the sums of squares of the window's samples (NaN: none)."""
         span = self.span
@@ -297,21 +367,58 @@ class ErrorWindow:
             )
         w = None if span is None else span / span.mean()
         total = float(sq.sum()) if w is None else float((w * sq).sum())
-        out: dict[str, float] = {}
-        for kind in kinds:
-            if kind == "rms":
-                out[kind] = float(np.sqrt(total / sq.size))
-            elif kind == "max":
-                out[kind] = float(np.sqrt(sq.max()))
-            elif kind == "l2_over_n":
-                out[kind] = float(np.sqrt(total) / sq.size)
-            elif kind == "l2":
-                out[kind] = float(np.sqrt(total))
-            elif w is None:
-                out[kind] = float(np.sqrt(sq).mean())
-            else:
-                out[kind] = float((w * np.sqrt(sq)).sum() / sq.size)
-        return out
+
+        def roots() -> float:
+            r = np.sqrt(sq)
+            return float(r.sum()) if w is None else float((w * r).sum())
+
+        return _kinds_of(kinds, total, sq.size, float(sq.max()), roots)
+
+
+def _kinds_of(
+    kinds: tuple[str, ...], total: float, size: int, max_sq: float, roots: Any
+) -> dict[str, float]:
+    """The norms of the module docstring from the (weighted) sum of the per-sample sums
+    of squares ``total``, their number ``size``, the largest ``max_sq``, and ``roots()``
+    the (weighted) sum of their square roots (called only for "mean")."""
+    out: dict[str, float] = {}
+    for kind in kinds:
+        if kind == "rms":
+            out[kind] = float(np.sqrt(total / size))
+        elif kind == "max":
+            out[kind] = float(np.sqrt(max_sq))
+        elif kind == "l2_over_n":
+            out[kind] = float(np.sqrt(total) / size)
+        elif kind == "l2":
+            out[kind] = float(np.sqrt(total))
+        else:
+            out[kind] = float(roots() / size)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _pairwise_plan(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """numpy's pairwise summation tree of n > 0 contiguous float64 values (the order
+    ``np.sum`` adds them in): the leaves, rows (offset, count) of at most
+    :data:`sampledyn._sums.PAIRWISE_BLOCK` values each, in order, and the joins, rows
+    (left, right) added in this order, a node being leaf k >= 0 or join -1 - j (the
+    last join is the sum; none for one leaf)."""
+    leaves: list[tuple[int, int]] = []
+    joins: list[tuple[int, int]] = []
+
+    def node(lo: int, m: int) -> int:
+        if m <= 128:  # PAIRWISE_BLOCK; numpy splits a longer run at a multiple of 8
+            leaves.append((lo, m))
+            return len(leaves) - 1
+        half = m // 2
+        half -= half % 8
+        pair = (node(lo, half), node(lo + half, m - half))
+        joins.append(pair)
+        return -len(joins)
+
+    node(0, n)
+    return (np.array(leaves, dtype=np.int64).reshape(-1, 2),
+            np.array(joins, dtype=np.int64).reshape(-1, 2))  # fmt: skip
 
 
 def error_window(

@@ -10,6 +10,7 @@ other units (e.g. thruster rpm states) get no noise.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -68,6 +69,22 @@ def noise_amplitudes(state_units: tuple[str, ...], eta_pct: float, v_pct: float)
     return amp
 
 
+_SCRATCH = threading.local()
+
+
+def _scratch(slot: int, shape: tuple[int, int]) -> np.ndarray:
+    """A float64 buffer of ``shape`` for the draws of stream ``slot``, kept per thread
+    and reused by the next call of that shape: the draws are read only inside
+    :func:`add_noise`, and a new buffer of some MB per call costs its page faults."""
+    kept = getattr(_SCRATCH, "buffers", None)
+    if kept is None:
+        kept = _SCRATCH.buffers = {}
+    buf = kept.get(slot)
+    if buf is None or buf.shape != shape:
+        buf = kept[slot] = np.empty(shape)
+    return buf
+
+
 def add_noise(
     traj: Trajectory,
     eta_pct: float = 0.0,
@@ -87,7 +104,8 @@ def add_noise(
         magnitudes (1 m, 30 deg; 1 m/s, 30 deg/s).
     seed : int or numpy SeedSequence
         Seed. Positions and rates draw from independent streams spawned from it, so the
-        position noise of a seed does not change when ``v_pct`` does.
+        position noise of a seed does not change when ``v_pct`` does; a zero level
+        draws nothing (those components are the samples).
     distribution : {"uniform", "gaussian"}
         "uniform": white noise uniform in [-a, a] (the paper's). "gaussian": white
         normal noise with the same standard deviation a / sqrt(3).
@@ -110,22 +128,31 @@ def add_noise(
     from ._sums import add_scaled_draws  # numba, loaded on first use
 
     x = np.ascontiguousarray(clean.x, dtype=float)
-    noisy = x.copy()  # the components without noise stay the samples
-    for group, ss in streams.items():
+    n = x.shape[0]
+    # Per component: its stream (1 eta, 2 v; 0 none: no noise, or a zero level, which
+    # draws nothing) and its column among that stream's draws.
+    stream = np.zeros(x.shape[1], dtype=np.int64)
+    pos = np.zeros(x.shape[1], dtype=np.int64)
+    draws = []
+    low, span = (-1.0, 2.0) if distribution == "uniform" else (0.0, 1.0)
+    for g, (group, ss) in enumerate(streams.items(), start=1):
         cols = np.flatnonzero(groups == group)
-        if cols.size == 0:
+        if cols.size == 0 or not amp[cols].any():
+            draws.append(np.zeros((1, 1)))
             continue
+        stream[cols], pos[cols] = g, np.arange(cols.size)
         rng = np.random.default_rng(ss)
-        draws = np.empty((x.shape[0], cols.size))
+        d = _scratch(g, (n, cols.size))
         # The draws of uniform(-1, 1) (-1 + 2 r, r in [0, 1)) and of standard_normal()
         # / sqrt(3), scaled and added to the samples in one pass, without temporaries.
         if distribution == "uniform":
-            rng.random(out=draws)
-            add_scaled_draws(x, draws, cols, amp, -1.0, 2.0, noisy)
+            rng.random(out=d)
         else:
-            rng.standard_normal(out=draws)
-            np.divide(draws, math.sqrt(3.0), out=draws)
-            add_scaled_draws(x, draws, cols, amp, 0.0, 1.0, noisy)
+            rng.standard_normal(out=d)
+            np.divide(d, math.sqrt(3.0), out=d)
+        draws.append(d)
+    noisy = np.empty_like(x)
+    add_scaled_draws(x, draws[0], draws[1], stream, pos, amp, low, span, noisy)
     noisy.setflags(write=False)
     return clean.replace(x=noisy, clean=clean)
 

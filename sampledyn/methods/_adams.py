@@ -33,6 +33,7 @@ import numpy as np
 from numba import njit
 
 from .. import _checks as checks
+from .._sums import fir_rows
 from .._trajectory import Trajectory
 from ..models import Model
 from ._base import (
@@ -178,22 +179,8 @@ def ab_filter_steps(x: np.ndarray, f: np.ndarray, hw: np.ndarray) -> np.ndarray:
 @njit(cache=True)
 def _ab_fir(x, f, hw, out):  # pragma: no cover - compiled
     """out[k] = x[k-1] + sum_i hw[k-s, i] f[k-1-i] for k >= s (hw[0] on every row if hw
-    has one row), row by row (the inner loops run over contiguous rows, which the
-    compiler vectorises)."""
-    n, nx = x.shape
-    s = hw.shape[1]
-    per_row = hw.shape[0] > 1
-    for k in range(s, n):
-        w = hw[k - s] if per_row else hw[0]
-        xr = x[k - 1]
-        o = out[k]
-        for j in range(nx):
-            o[j] = xr[j]
-        for i in range(s):
-            c = w[i]
-            fr = f[k - 1 - i]
-            for j in range(nx):
-                o[j] += c * fr[j]
+    has one row): :func:`sampledyn._sums.fir_rows` over every row."""
+    fir_rows(x, f, hw, hw.shape[1], x.shape[0], out, 0)
 
 
 def fill_lagged(block: np.ndarray, lagged: list[np.ndarray], hw: np.ndarray) -> None:
@@ -353,13 +340,22 @@ class AdamsBashforth(AdamsRule):
 
         ``signal`` is not used: AB needs no input between samples.
         """
+        return ab_filter_steps(data.x, *self.sample_filter(model, data, cache=cache))
+
+    def sample_filter(
+        self, model: Model, data: Trajectory, *, cache: dict[Any, Any] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(f, hw)`` of :meth:`predict` = :func:`ab_filter_steps` ``(data.x, f, hw)``: f at
+        the samples, shape (N, nx), and the weights ``h_n beta_{n,i}``, shape (1, s) on a
+        uniform grid (``h a_i``, as :func:`ab_filter` forms them) or (N - s, s). A caller
+        that needs only some rows of the prediction, or its errors, forms them from
+        these (:meth:`sampledyn._local_errors.ErrorWindow.norms_of_sets`)."""
         f = sample_f(model, data, cache)
         h = fixed_step(data)
-        if h is not None:
-            return ab_filter(data.x, f, h, self.weights)
-        if data.n_samples <= self.order:
-            return ab_filter(data.x, f, data.h, self.weights)  # NaN rows only
-        return ab_filter_steps(data.x, f, self.step_weights(data, None))
+        if h is None and data.n_samples > self.order:
+            return f, self.step_weights(data, None)
+        step = data.h if h is None else h  # N <= s: NaN rows only
+        return f, (float(step) * self.weights)[None, :]
 
     def prediction_jacobians(
         self,

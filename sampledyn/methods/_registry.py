@@ -21,7 +21,7 @@ import importlib
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 from .._checks import did_you_mean
 from ..exceptions import ArgumentError
@@ -223,6 +223,23 @@ def families() -> tuple[Family, ...]:
     return tuple(_FAMILIES.values())
 
 
+#: (protocol, class) pairs that passed ``isinstance``: a runtime Protocol check looks up
+#: every member (some 10 us), and a study asks it of the same classes thousands of times.
+_CONFORMING: set[tuple[type, type]] = set()
+
+
+def _conforms(obj: Any, protocol: type) -> bool:
+    """``isinstance(obj, protocol)``, remembered per class when it holds (the methods'
+    members are the class's, not set per instance)."""
+    key = (protocol, type(obj))
+    if key in _CONFORMING:
+        return True
+    if isinstance(obj, protocol):
+        _CONFORMING.add(key)
+        return True
+    return False
+
+
 def get_method(name: Any) -> Method:
     """The method registered under ``name``: "E", "T", "AB<s>", "RK<s>", "ABu<s>", ...
 
@@ -238,7 +255,7 @@ def get_method(name: Any) -> Method:
         for anything that is neither a name nor a method object.
     """
     if not isinstance(name, str):
-        if isinstance(name, Method):
+        if _conforms(name, Method):
             return name
         raise TypeError(f"`method` must be a name or a method object, got {type(name).__name__}.")
     key = name.strip()
@@ -289,14 +306,14 @@ def get_predictor(name: Any, argument: str | None = "method") -> Predictor:
         (``None``: the caller names it, as :func:`get_method`'s messages leave it to).
     """
     m = get_method(name)
-    if not isinstance(m, Predictor):
+    if not _conforms(m, Predictor):
         where = "" if argument is None else f"`{argument}` "
         raise ValueError(
             f"{where}{m.name!r} does not predict on sampled data (it is a discrete-time "
             "system only: use sampledyn.discretize); give a predictor such as 'AB4' "
             "(`sampledyn methods` lists them)."
         )
-    return m
+    return cast(Predictor, m)
 
 
 def available_methods() -> tuple[str, ...]:

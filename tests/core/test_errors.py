@@ -112,6 +112,58 @@ def test_sum_of_squares_orders():
         sum_of_squares(e, slice(12, 12))
 
 
+SETS = (slice(0, 6), slice(6, 12), slice(0, 12), slice(0, 3), slice(6, 9),
+        np.array([0, 1, 2, 6, 7, 8]), [11, 0, 5], [4])  # fmt: skip
+SUMMED = ("rms", "l2_over_n", "l2")  # the kinds that are sums of the squares
+
+
+@pytest.mark.parametrize("n", [1, 7, 8, 128, 129, 1000, 8193, 50001])
+def test_norms_in_one_pass_are_those_of_the_squares(n):
+    """ErrorWindow.norms_of_sets (the errors a - b formed, squared and summed leaf by leaf
+    of numpy's pairwise tree, no arrays) gives the kinds that are sums of the squares bit
+    for bit as numpy's sums of the per-sample squares: lengths around the leaf size (128)
+    and the split rule. "max" and "mean" are left to the squares (None)."""
+    from sampledyn._local_errors import error_window, sums_of_squares
+
+    rng = np.random.default_rng(n)
+    a = rng.standard_normal((n, 12)) * np.exp(rng.uniform(-20, 20, (n, 12)))
+    b = rng.standard_normal((n, 12))
+    t = 0.1 * np.arange(n)
+    for after in (None, 0.3 * t[-1]):
+        window = error_window(t, after)
+        got = window.norms_of_sets(a, b, SETS, SUMMED)
+        squares = sums_of_squares(a - b, SETS)
+        want = [window.norms_of_squares(squares[k], SUMMED) for k in range(len(SETS))]
+        assert got == want
+        for kinds in (("rms", "max"), ("mean",)):
+            assert window.norms_of_sets(a, b, SETS, kinds) is None
+
+
+def test_norms_in_one_pass_of_an_adams_prediction(rexrov_data):
+    """With the weights of an Adams rule (sample_filter) the prediction is formed in the
+    pass: the norms are those of predict()'s errors, bit for bit; rows without a
+    prediction, a NaN, a mask or a non-uniform grid leave it to the squares (None)."""
+    from sampledyn._local_errors import error_window, local_errors
+
+    veh, _sig, data = rexrov_data
+    window = error_window(data.t, data.t[len(data.t) // 3])
+    for name in ("AB1", "AB3", "AB4"):
+        method = sd.get_method(name)
+        f, hw = method.sample_filter(veh, data)
+        x_hat = sd.predict(name, veh, data)
+        want = [window.norms(local_errors(x_hat, data), SUMMED, c) for c in SETS]
+        assert window.norms_of_sets(data.x, f, SETS, SUMMED, hw) == want
+        assert window.norms_of_sets(data.x, x_hat, SETS, SUMMED) == want
+    assert error_window(data.t).norms_of_sets(data.x, f, SETS, SUMMED, hw) is None
+    nan = np.array(data.x)
+    nan[-1, 3] = np.nan
+    assert window.norms_of_sets(nan, f, SETS, SUMMED) is None
+    keep = np.arange(data.n_samples) % 2 == 0
+    assert error_window(data.t, None, keep).norms_of_sets(data.x, f, SETS) is None
+    jitter = data.t + 1e-3 * (np.arange(data.n_samples) % 3)
+    assert error_window(jitter).norms_of_sets(data.x, f, SETS) is None
+
+
 def test_local_errors_into_the_prediction(rexrov_data):
     from sampledyn._local_errors import local_errors
 
@@ -131,3 +183,26 @@ def test_error_norm_errors():
         sd.error_norm(e, t, after=10.0)
     with pytest.raises(ValueError, match="`errors` must have shape"):
         sd.error_norm(np.ones((3, 2)), t)
+
+
+def test_cached_f_is_frozen_in_place_only_when_nothing_else_holds_it(rexrov_data):
+    """The f a cache keeps is read-only: the model's new array frozen in place (no copy);
+    an array another object holds (a model that returns its own buffer, or a view of
+    it) is copied, so the holder may still write to it."""
+    from sampledyn.methods._base import _cached
+
+    veh, _sig, data = rexrov_data
+    held = np.ones(data.x.shape)
+    for give in (lambda: held, lambda: held[:]):
+        kept = _cached("f", veh, data, {}, give)
+        assert not kept.flags.writeable and not np.shares_memory(kept, held)
+        assert held.flags.writeable
+    made: list[int] = []
+
+    def fresh() -> np.ndarray:
+        out = veh.f(data.t, data.x, data.u)
+        made.append(out.__array_interface__["data"][0])
+        return out
+
+    kept = _cached("f", veh, data, {}, fresh)
+    assert not kept.flags.writeable and kept.__array_interface__["data"][0] == made[0]

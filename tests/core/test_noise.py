@@ -34,3 +34,19 @@ def test_add_noise_is_the_former_formula(rexrov_data):
         want = clean.x + noise
         assert np.array_equal(got.x.view(np.int64), want.view(np.int64)), dist
         assert not got.x.flags.writeable and got.clean is clean
+
+
+def test_a_zero_level_leaves_its_components_the_samples(rexrov_data):
+    """A zero level draws nothing: those components are the samples, bit for bit (signed
+    zeros too), and the other group's noise is that of the same seed with both levels."""
+    from sampledyn._noise import NOISE_REFERENCE
+
+    _veh, _sig, data = rexrov_data
+    clean = data.clean
+    groups = np.array([NOISE_REFERENCE.get(u, ("", 0.0))[0] for u in clean.state_units])
+    eta, v = groups == "eta", groups == "v"
+    both = sd.add_noise(clean, 10, 20, seed=3)
+    for eta_pct, v_pct, quiet, noisy in ((0, 20, eta, v), (10, 0, v, eta)):
+        got = sd.add_noise(clean, eta_pct, v_pct, seed=3)
+        assert np.array_equal(got.x[:, quiet].view(np.int64), clean.x[:, quiet].view(np.int64))
+        assert np.array_equal(got.x[:, noisy], both.x[:, noisy])

@@ -294,7 +294,8 @@ def test_cli_advise_takes_the_input(tmp_path, capsys):
 def test_warm_up_of_the_cells_runs_the_first_group_on_a_short_case(tmp_path, monkeypatch):
     """What a local pool compiles beside the first simulation: the chunk's first group,
     with the chunk's rules and norms, on 20 samples of the chunk's own period (taken from
-    the simulation's period, as the real samples are), errors counted from t = 0."""
+    the simulation's period, as the real samples are), errors counted over the last 10
+    (after every rule's history, as in a study: the one-pass norms, not the fallback)."""
     from sampledyn.experiments.sweep import _prediction
 
     study = plan_study(load_config(write_sweep(tmp_path / "s.toml", h="[0.01, 0.02]")))
@@ -305,7 +306,7 @@ def test_warm_up_of_the_cells_runs_the_first_group_on_a_short_case(tmp_path, mon
     monkeypatch.setattr(_prediction, "compute_chunk", lambda *a: seen.append(a))
     study.setup.kind.warm_up_cells(study.setup, sim, chunk)
     ((short, shared, part),) = seen
-    assert short.after == 0.0 and short.T == pytest.approx(20 * 2 * 0.01)
+    assert short.after == pytest.approx(10 * 2 * 0.01) and short.T == pytest.approx(20 * 2 * 0.01)
     assert shared.traj.n_samples == 21 and np.allclose(np.diff(shared.traj.t), 0.02)
     assert part.groups == chunk.groups[:1] and part.traj_key == chunk.traj_key
 

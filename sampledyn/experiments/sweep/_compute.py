@@ -28,6 +28,7 @@ This is the one place that decides it (:func:`prediction_inputs`).
 from __future__ import annotations
 
 import os
+import pickle
 import socket
 import time
 import warnings
@@ -39,14 +40,14 @@ import numpy as np
 
 from ..._local_errors import local_errors
 from ..._noise import add_noise
-from ..._predict import predict
+from ..._predict import check_measured, predict
 from ..._simulate import simulate
 from ..._trajectory import Trajectory
 from ...exceptions import ConvergenceError, IntegrationError
 from ...methods import get_method
 from ...models import ClosedLoop, Model
 from ._cells import Chunk, Group, Setup, SimPlan
-from ._norms import NormSpec, measure, parse_norm
+from ._norms import ErrorPair, NormSpec, measure, parse_norm
 from ._summaries import summarize_trajectory
 
 __all__ = [
@@ -208,22 +209,38 @@ def prediction_inputs(
     return model.plant, measured, None
 
 
+#: Stage inputs of the last grids this process computed, by signal (its pickle: a task
+#: brings its own copy of the same signal) and grid; a worker's chunks of one
+#: trajectory ask for the same ones. A few entries of (N - 1, nu) floats.
+_STAGE_INPUTS: dict[tuple[bytes, int, float, float, float], np.ndarray] = {}
+_STAGE_INPUTS_KEPT = 8
+
+
 class _MemoSignal:
-    """A signal whose stage inputs are computed once per grid: every seed of a chunk
-    asks for the same ``intersample(t, tau)``."""
+    """A signal whose stage inputs are computed once per grid: every seed of a chunk,
+    and every chunk of the trajectory on this worker, asks for the same
+    ``intersample(t, tau)`` (signals are pure: the same state, the same inputs)."""
 
     def __init__(self, signal: Any) -> None:
         self._signal = signal
         self.nu = signal.nu
-        self._cache: dict[tuple[int, float, float, float], np.ndarray] = {}
+        try:
+            self._name = pickle.dumps(signal)
+            self._cache = _STAGE_INPUTS
+        except (pickle.PicklingError, TypeError, AttributeError):  # a serial run: own memo
+            self._name, self._cache = b"", {}
 
     def __call__(self, t: Any) -> np.ndarray:
         return self._signal(t)
 
     def intersample(self, t_start: np.ndarray, tau: float) -> np.ndarray:
-        key = (t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
+        key = (self._name, t_start.shape[0], float(t_start[0]), float(t_start[-1]), float(tau))
         if key not in self._cache:
-            self._cache[key] = self._signal.intersample(t_start, tau)
+            while len(self._cache) >= _STAGE_INPUTS_KEPT:
+                del self._cache[next(iter(self._cache))]  # the oldest
+            u = np.asarray(self._signal.intersample(t_start, tau), dtype=float)
+            u.setflags(write=False)
+            self._cache[key] = u
         return self._cache[key]
 
 
@@ -240,7 +257,14 @@ class _Context:
         self._specs: dict[str, NormSpec] = {}
         self._masks: dict[NormSpec, np.ndarray | None] = {}
         self._clean: dict[str, np.ndarray] = {}
+        self._methods: dict[str, Any] = {}
         self.windows: dict[Any, Any] = {}  # samples counted per (t, mask): measure's
+
+    def method(self, name: str) -> Any:
+        """The method object of ``name`` (built once per chunk, not per group)."""
+        if name not in self._methods:
+            self._methods[name] = get_method(name)
+        return self._methods[name]
 
     def spec(self, norm: str) -> NormSpec:
         if norm not in self._specs:
@@ -268,13 +292,36 @@ class _Context:
         return self._clean[method.name]
 
 
-def _noise_part(ctx: _Context, method: Any, err: np.ndarray) -> Callable[[], np.ndarray]:
+def _noise_part(ctx: _Context, method: Any, err: ErrorPair) -> Callable[[], ErrorPair]:
     """The noise contributions (disturbed minus undisturbed local errors), on demand."""
 
-    def part() -> np.ndarray:
-        return err - ctx.clean_errors(method)
+    def part() -> ErrorPair:
+        return ErrorPair(err.array(), ctx.clean_errors(method))
 
     return part
+
+
+def _errors(
+    method: Any, model: Any, data: Trajectory, signal: Any, measured: Trajectory, cache: dict
+) -> ErrorPair:
+    """The disturbed local errors of ``method`` predicting ``measured`` from ``data``
+    (its samples, with the input the rule uses). A rule that is a filter over f at the
+    samples (``sample_filter``: the Adams rules) hands over f and its weights, and the
+    norms form the rows they count in one pass; any other is :func:`predict`-ed."""
+
+    def prediction() -> np.ndarray:
+        return predict(method, model, data, signal, cache=cache)
+
+    sample_filter = getattr(method, "sample_filter", None)
+    if sample_filter is not None and data.x is measured.x:
+        try:
+            check_measured(model, data)
+            f, hw = sample_filter(model, data, cache=cache)
+        except CELL_ERRORS:
+            pass  # predict() raises it, in its words
+        else:
+            return ErrorPair(measured.x, f, hw, prediction)
+    return ErrorPair(measured.x, prediction())
 
 
 def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
@@ -294,12 +341,11 @@ def _group_rows(ctx: _Context, group: Group) -> list[dict[str, Any]]:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                method = get_method(method_name)
+                method = ctx.method(method_name)
                 model, data, signal = prediction_inputs(
                     setup.model, method, measured, reference, ctx.signal
                 )
-                x_hat = predict(method, model, data, signal, cache=cache)
-                err = local_errors(x_hat, measured, out=x_hat if x_hat.flags.writeable else None)
+                err = _errors(method, model, data, signal, measured, cache)
                 specs = [ctx.spec(norm) for _key, norm in cells]
                 found = measure(
                     specs,

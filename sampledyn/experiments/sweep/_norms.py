@@ -35,12 +35,19 @@ from typing import Any
 
 import numpy as np
 
-from ..._local_errors import ERROR_NORMS, ErrorWindow, error_window, sums_of_squares
+from ..._local_errors import (
+    ERROR_NORMS,
+    ErrorWindow,
+    error_window,
+    local_errors,
+    sums_of_squares,
+)
 from ..._noise import NOISE_REFERENCE
 from ...methods import Predictor, available_methods, get_method
 from ...models import Model
 
 __all__ = [
+    "ErrorPair",
     "NormSpec",
     "available_masks",
     "away_from_jumps",
@@ -379,7 +386,40 @@ def _counts(
     }
 
 
-def _noise(noise_err: Callable[[], np.ndarray] | None) -> np.ndarray:
+class ErrorPair:
+    """Local errors ``a - b`` (e.g. the measured samples minus a rule's prediction, or
+    the disturbed minus the undisturbed local errors), both shape (N, nx): the norms
+    of a window of samples are summed from the pair in one pass
+    (:meth:`~sampledyn._local_errors.ErrorWindow.norms_of_sets`); the array of the
+    errors is formed (:func:`sampledyn.local_errors`, once) only where a norm needs it.
+
+    With ``hw`` the prediction is not an array: ``b`` is f at the samples ``a`` and the
+    prediction of row k ``a[k-1] + sum_i hw[., i] b[k-1-i]`` (an Adams-type rule's
+    :meth:`sample_filter`), and ``prediction()`` forms it where a norm needs the
+    errors as an array.
+    """
+
+    def __init__(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        hw: np.ndarray | None = None,
+        prediction: Callable[[], np.ndarray] | None = None,
+    ) -> None:
+        self.a, self.b, self.hw = a, b, hw
+        self._prediction = prediction
+        self._array: np.ndarray | None = None
+
+    def array(self) -> np.ndarray:
+        """``a`` minus the prediction, shape (N, nx) (read-only)."""
+        if self._array is None:
+            b = self.b if self._prediction is None else self._prediction()
+            self._array = local_errors(b, self.a)
+            self._array.setflags(write=False)
+        return self._array
+
+
+def _noise(noise_err: Callable[[], ErrorPair] | None) -> ErrorPair:
     if noise_err is None:
         raise ValueError("a noise: norm needs the undisturbed local errors.")
     return noise_err()
@@ -411,14 +451,85 @@ class _Squares:
         return self._sq[_set_key(comps)]
 
 
+def _in_one_pass(
+    batches: Mapping[tuple[Any, ...], list[NormSpec]],
+    uses: Mapping[tuple[Any, ...], Mapping[str, Any]],
+    pairs: Mapping[str, Callable[[], ErrorPair]],
+    windows: Mapping[Any, ErrorWindow],
+) -> dict[tuple[Any, ...], dict[str, dict[str, float]]]:
+    """Batch key -> group name -> kind -> value, for the batches (not counts) whose
+    norms one pass over each (errors, window) gives; those it cannot give (the kinds
+    "max" and "mean", a mask that keeps scattered samples, a NaN, a non-uniform grid)
+    are left out."""
+    together: dict[tuple[Any, ...], list[tuple[Any, ...]]] = {}
+    for key, batch in batches.items():
+        if not batch[0].counts:
+            together.setdefault((batch[0].part, key[-1]), []).append(key)
+    found: dict[tuple[Any, ...], dict[str, dict[str, float]]] = {}
+    for (part, wkey), keys in together.items():
+        sets = {_set_key(c): c for k in keys for c in uses[k].values() if not _empty(c)}
+        if not sets or wkey not in windows:
+            continue
+        kinds = tuple(dict.fromkeys(s.kind for k in keys for s in batches[k]))
+        pair = pairs[part]()
+        got = windows[wkey].norms_of_sets(pair.a, pair.b, tuple(sets), kinds, pair.hw)
+        if got is None:
+            continue
+        by_set = dict(zip(sets, got, strict=True))
+        for k in keys:
+            found[k] = {
+                name: dict.fromkeys(kinds, math.nan) if _empty(c) else by_set[_set_key(c)]
+                for name, c in uses[k].items()
+            }
+    return found
+
+
+def _of_squares(
+    batch: list[NormSpec], use: Mapping[str, Any], window: ErrorWindow, sq: _Squares
+) -> dict[str, dict[str, float]]:
+    """Group name -> kind -> value of ``batch`` from the per-sample sums of squares
+    (where :func:`_in_one_pass` does not apply)."""
+    kinds = tuple(dict.fromkeys(s.kind for s in batch))
+    return {
+        name: dict.fromkeys(kinds, math.nan)
+        if _empty(comps)
+        else window.norms_of_squares(sq(comps), kinds)
+        for name, comps in use.items()
+    }
+
+
+def _batches(
+    specs: Sequence[NormSpec],
+    t: np.ndarray,
+    after: float,
+    masks: Mapping[NormSpec, np.ndarray | None],
+    windows: dict[Any, ErrorWindow],
+) -> dict[tuple[Any, ...], list[NormSpec]]:
+    """The specs by what they measure: norms over the same data, components and samples
+    (the last entry of the key: their window's, made here if it can be) share a pass."""
+    batches: dict[tuple[Any, ...], list[NormSpec]] = {}
+    for spec in specs:
+        where = masks.get(spec)
+        wkey = (id(t), id(where), after)
+        key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args,
+               wkey)  # fmt: skip
+        if key not in batches and not spec.counts and wkey not in windows:
+            try:
+                windows[wkey] = error_window(t, after, where)
+            except ValueError:
+                pass  # said by measure, per batch
+        batches.setdefault(key, []).append(spec)
+    return batches
+
+
 def measure(
     specs: Sequence[NormSpec],
-    err: np.ndarray,
+    err: ErrorPair,
     t: np.ndarray,
     after: float,
     state_units: Sequence[str],
     masks: Mapping[NormSpec, np.ndarray | None],
-    noise_err: Callable[[], np.ndarray] | None = None,
+    noise_err: Callable[[], ErrorPair] | None = None,
     windows: dict[Any, ErrorWindow] | None = None,
 ) -> dict[NormSpec, tuple[dict[str, float], str]]:
     """The numbers of every norm in ``specs`` for one rule on one measured trajectory.
@@ -426,8 +537,9 @@ def measure(
     Parameters
     ----------
     specs : sequence of NormSpec
-    err : ndarray, shape (N, nx)
-        Disturbed local errors (NaN rows: no prediction).
+    err : ErrorPair
+        Disturbed local errors, shape (N, nx) (NaN rows: no prediction): the samples
+        and the prediction.
     t : ndarray, shape (N,)
         Sample times (s).
     after : float
@@ -437,8 +549,8 @@ def measure(
     masks : mapping NormSpec -> bool array (N,) or None
         Each spec's samples (:meth:`NormSpec.mask_of` on the exact samples).
     noise_err : callable, optional
-        Returns the noise contributions (disturbed minus undisturbed local errors);
-        called only if a ``noise:`` norm is asked for.
+        Returns the noise contributions (disturbed minus undisturbed local errors, as
+        an ErrorPair); called only if a ``noise:`` norm is asked for.
     windows : dict, optional
         Kept by the caller across calls on the same ``t`` and masks (objects that stay
         alive meanwhile): the samples each mask counts are found once.
@@ -450,13 +562,17 @@ def measure(
     """
     groups = _groups(tuple(state_units))
     out: dict[NormSpec, tuple[dict[str, float], str]] = {}
-    # Norms over the same data, components and samples share one pass.
-    batches: dict[tuple[Any, ...], list[NormSpec]] = {}
-    for spec in specs:
-        key = (spec.part, spec.units, spec.mask, spec.mask_args, spec.counts, spec.kind_args)
-        batches.setdefault(key, []).append(spec)
     windows = {} if windows is None else windows  # the samples the norms count
-    squares = {"err": _Squares(lambda: err), "noise": _Squares(lambda: _noise(noise_err))}
+    batches = _batches(specs, t, after, masks, windows)
+    noise_pair: list[ErrorPair] = []
+
+    def noise() -> ErrorPair:
+        if not noise_pair:
+            noise_pair.append(_noise(noise_err))
+        return noise_pair[0]
+
+    pairs = {"disturbed": lambda: err, "noise": noise}
+    squares = {"disturbed": _Squares(err.array), "noise": _Squares(lambda: noise().array())}
     uses = {}
     for key, batch in batches.items():
         use = groups
@@ -464,29 +580,25 @@ def measure(
             use = _unit_groups(tuple(state_units), tuple(batch[0].units))
         uses[key] = use
         for comps in use.values():
-            squares["noise" if batch[0].part == "noise" else "err"].want(comps)
+            squares[batch[0].part].want(comps)
+    try:
+        found = _in_one_pass(batches, uses, pairs, windows)
+    except ValueError:
+        found = {}  # each batch says why below
     for key, batch in batches.items():
         first = batch[0]
-        sq = squares["noise" if first.part == "noise" else "err"]
+        sq = squares[first.part]
         use = uses[key]
         where = masks.get(first)
         try:
             if first.counts:
-                out[first] = (_counts(err.shape[0], t, first, after, use, where, sq), "")
+                out[first] = (_counts(err.a.shape[0], t, first, after, use, where, sq), "")
                 continue
-            kinds = tuple(dict.fromkeys(s.kind for s in batch))
-            wkey = (id(t), id(where), after)
-            if wkey not in windows:
-                windows[wkey] = error_window(t, after, where)
-            window = windows[wkey]
-            per_group = {
-                name: (
-                    dict.fromkeys(kinds, math.nan)
-                    if _empty(comps)
-                    else window.norms_of_squares(sq(comps), kinds)
-                )
-                for name, comps in use.items()
-            }
+            per_group = found.get(key)
+            if per_group is None:
+                if key[-1] not in windows:
+                    windows[key[-1]] = error_window(t, after, where)
+                per_group = _of_squares(batch, use, windows[key[-1]], sq)
             for spec in batch:
                 out[spec] = ({name: v[spec.kind] for name, v in per_group.items()}, "")
         except ValueError as exc:

@@ -50,9 +50,10 @@ class PredictionCells(CellKind):
 
     def warm_up_cells(self, setup: Setup, sim: SimPlan, chunk: Chunk) -> None:
         # The first group of the chunk on 20 samples at the chunk's period (the same
-        # argument types as the real cells: the same compiled specialisations).
+        # argument types as the real cells: the same compiled specialisations), the
+        # norms over the last 10, after every rule's history, as in a study.
         k = max(k for _key, _h, k in sim.members)
-        short = dataclasses.replace(setup, T=20 * k * sim.h, after=0.0, reference=None)
+        short = dataclasses.replace(setup, T=20 * k * sim.h, after=10 * k * sim.h, reference=None)
         part = Chunk(chunk.traj_key, chunk.h, chunk.groups[:1], chunk.sim_key)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
