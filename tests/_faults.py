@@ -16,6 +16,15 @@ from typing import Any
 
 CLI = [sys.executable, "-m", "sampledyn.cli"]
 
+
+def error_lines(err: str) -> list[str]:
+    """The lines of a command's stderr without the compile notice that a run which
+    compiled prints first (``cli._main.compile_notice``; docs/cli.md: "one line, besides
+    the compile notice"). Whether a test's command compiles depends on what ran before
+    it in the same process and on the kernel cache, not on the test."""
+    return [ln for ln in err.strip().splitlines() if ": compiling the numerical kernels" not in ln]
+
+
 # An AUV-like grid of 460 cells that runs a few seconds: long enough to be killed
 # mid-run, short enough for a test.
 SLOW_GRID = """\

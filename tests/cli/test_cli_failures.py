@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
-from _faults import CLI, Unavailable, remount_readonly, tmpfs
+from _faults import CLI, Unavailable, error_lines, remount_readonly, tmpfs
 from _sweep_helpers import write_sweep
 
 import sampledyn as sd
@@ -38,7 +38,7 @@ def _fails(args: list[str], capsys) -> tuple[int, str]:
 
 
 def _one_line(err: str) -> str:
-    lines = err.strip().splitlines()
+    lines = error_lines(err)
     assert len(lines) == 1 and "Traceback" not in err, err
     assert lines[0].startswith("sampledyn: error: "), err
     return lines[0]

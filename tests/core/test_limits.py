@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+from _faults import error_lines
 
 import sampledyn as sd
 from sampledyn import _checks as _limits
@@ -159,4 +160,4 @@ def test_newton_iterations_are_bounded_with_the_reason(tmp_path, capsys):
     assert refused.value.code == 3
     err = capsys.readouterr().err
     assert "--newton-max-iter" in err and f"more than {bound}" in err
-    assert len(err.strip().splitlines()) == 1
+    assert len(error_lines(err)) == 1

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _faults import CLI, Unavailable, remount_readonly, tmpfs
+from _faults import CLI, Unavailable, error_lines, remount_readonly, tmpfs
 from _sweep_helpers import rows, write_sweep
 
 import sampledyn as sd
@@ -288,7 +288,7 @@ def test_full_disk_on_a_small_tmpfs(tmp_path):
             )
             assert res.returncode == EXIT_DISK, res.stderr
             # one line, besides the compile notice of a run that compiled (cli._main)
-            err = [ln for ln in res.stderr.splitlines() if "compiling the numerical" not in ln]
+            err = error_lines(res.stderr)
             assert len(err) == 1 and "no space left" in err[0]
             with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
                 assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"

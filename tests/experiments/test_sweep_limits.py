@@ -7,6 +7,7 @@ from __future__ import annotations
 import time
 
 import pytest
+from _faults import error_lines
 from _sweep_helpers import write_sweep
 
 from sampledyn.cli import main
@@ -23,7 +24,7 @@ def _fails(args: list[str], capsys) -> tuple[int, str]:
     with pytest.raises(SystemExit) as exc:
         main(args)
     assert time.monotonic() - t0 < 60  # refused before the work, not after it
-    lines = capsys.readouterr().err.strip().splitlines()
+    lines = error_lines(capsys.readouterr().err)
     assert len(lines) == 1 and lines[0].startswith("sampledyn: error: "), lines
     return int(exc.value.code), lines[0]  # type: ignore[arg-type]
 

@@ -13,6 +13,7 @@ import pytest
 from _faults import (
     SLOW_GRID_CELLS,
     children,
+    error_lines,
     kill_all,
     query,
     start,
@@ -86,7 +87,7 @@ def test_sigterm_and_ctrl_c_interrupt_the_run_and_stop_the_workers(tmp_path, sig
         kill_all([proc.pid, *workers])
     assert proc.returncode == status
     # one line, besides the compile notice of a run that compiled (cli._main)
-    lines = [ln for ln in err.strip().splitlines() if "compiling the numerical" not in ln]
+    lines = error_lines(err)
     assert len(lines) == 1 and "Traceback" not in err, err
     assert lines[0].startswith("sampledyn: error: ") and word in lines[0]
     assert str(db) in lines[0]  # where the finished cells are

@@ -20,6 +20,7 @@ from sampledyn.logs._t200 import t200_rpm
 rosbags = pytest.importorskip("rosbags")
 pytest.importorskip("pymavlink")
 
+from _faults import error_lines  # noqa: E402
 from _log_fixtures import (  # noqa: E402  (after the optional extras are known)
     FORMATS,
     SIGN,
@@ -81,7 +82,7 @@ def test_a_bag_without_a_mapping_is_a_missing_option(run, tmp_path, capsys):
         main(["evaluate", "--data", str(bag), "--vehicle", "bluerov2_heavy"])
     err = capsys.readouterr().err
     assert stop.value.code == 2 and err.startswith("sampledyn: error: --mapping: ")
-    assert "examples/ros2_bluerov2_heavy.toml" in err and err.count("\n") == 1
+    assert "examples/ros2_bluerov2_heavy.toml" in err and len(error_lines(err)) == 1
 
 
 def test_a_ros_yaw_of_zero_faces_east(tmp_path):

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _faults import error_lines
 from _sweep_helpers import write_sweep
 
 import sampledyn as sd
@@ -37,7 +38,7 @@ def heavy():
 def _status(args: list[str], capsys) -> tuple[int, str]:
     with pytest.raises(SystemExit) as exc:
         main(args)
-    lines = capsys.readouterr().err.strip().splitlines()
+    lines = error_lines(capsys.readouterr().err)
     assert len(lines) == 1 and lines[0].startswith("sampledyn: error: "), lines
     return int(exc.value.code), lines[0]  # type: ignore[arg-type]
 
@@ -101,7 +102,7 @@ def test_fifos_and_devices_are_refused_without_blocking(tmp_path, case):
     if case == "bag metadata FIFO":
         pytest.importorskip("rosbags")
     done = subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=120)
-    lines = done.stderr.strip().splitlines()
+    lines = error_lines(done.stderr)
     assert done.returncode in (EXIT_FILE, EXIT_BAD_VALUE), done.stderr
     assert len(lines) == 1 and said in lines[0], lines
     assert "regular file" in lines[0] or case == "bag metadata FIFO", lines

@@ -17,6 +17,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from _faults import error_lines
 
 from sampledyn.exceptions import UnsafeCacheError
 from sampledyn.models import _kernel_cache as kc
@@ -212,6 +213,6 @@ def test_the_cli_refuses_an_open_cache_in_one_line_exit_4(tmp_path):
         text=True,
     )
     assert done.returncode == 4, done.stderr
-    lines = done.stderr.strip().splitlines()
+    lines = error_lines(done.stderr)
     assert len(lines) == 1 and "Traceback" not in done.stderr
     assert "may be written by others" in lines[0] and "SAMPLEDYN_CACHE_DIR" in lines[0]
