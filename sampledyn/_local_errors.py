@@ -396,13 +396,27 @@ def _kinds_of(
     return out
 
 
+@lru_cache(maxsize=1)
+def _numpy_sum_run() -> int | None:
+    """The longest run ``np.sum`` of a contiguous float64 array gives one pairwise tree:
+    None for the whole array (numpy >= 2.3), or the ufunc buffer size (numpy < 2.3
+    sums runs of ``np.getbufsize()`` values, 8192 by default, and adds their sums in
+    order). Found by a sum whose two orders round differently, not from the version:
+    B + 1 values, 1 first and 2**-53 at B/2 and at B; one tree adds the two small ones
+    first (1 + 2**-52), runs of B add each to 1 alone (rounds to 1)."""
+    run = int(np.getbufsize())
+    x = np.zeros(run + 1)
+    x[0], x[run // 2], x[run] = 1.0, 2.0**-53, 2.0**-53
+    return run if float(np.sum(x)) == 1.0 else None
+
+
 @lru_cache(maxsize=16)
 def _pairwise_plan(n: int) -> tuple[np.ndarray, np.ndarray]:
     """numpy's pairwise summation tree of n > 0 contiguous float64 values (the order
-    ``np.sum`` adds them in): the leaves, rows (offset, count) of at most
-    :data:`sampledyn._sums.PAIRWISE_BLOCK` values each, in order, and the joins, rows
-    (left, right) added in this order, a node being leaf k >= 0 or join -1 - j (the
-    last join is the sum; none for one leaf)."""
+    ``np.sum`` adds them in, :func:`_numpy_sum_run`): the leaves, rows (offset, count)
+    of at most :data:`sampledyn._sums.PAIRWISE_BLOCK` values each, in order, and the
+    joins, rows (left, right) added in this order, a node being leaf k >= 0 or join
+    -1 - j (the last join is the sum; none for one leaf)."""
     leaves: list[tuple[int, int]] = []
     joins: list[tuple[int, int]] = []
 
@@ -416,7 +430,11 @@ def _pairwise_plan(n: int) -> tuple[np.ndarray, np.ndarray]:
         joins.append(pair)
         return -len(joins)
 
-    node(0, n)
+    run = _numpy_sum_run() or n
+    total = node(0, min(run, n))
+    for lo in range(run, n, run):  # the runs' sums added in order
+        joins.append((total, node(lo, min(run, n - lo))))
+        total = -len(joins)
     return (np.array(leaves, dtype=np.int64).reshape(-1, 2),
             np.array(joins, dtype=np.int64).reshape(-1, 2))  # fmt: skip
 
