@@ -56,3 +56,34 @@ def test_a_failing_preparation_is_left_to_the_report():
     ahead.wait()
     assert done == [1]
     _Ahead(None).start()  # a study without a preparation: nothing runs
+
+
+def _boxes_apart(a, b):
+    return a.x1 <= b.x0 or b.x1 <= a.x0 or a.y1 <= b.y0 or b.y1 <= a.y0
+
+
+def test_fixed_margins_leave_room_for_every_label():
+    """With the fixed margins (no layout engine) every panel, with its tick labels,
+    labels and title, lies inside the figure and clear of the other panels, of the
+    legend and of the figure title; on the study's summary (with off-scale entries:
+    a longer legend) and on one in the paper's mixed norm (longer y labels)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    split = _summary()
+    mixed = [{k: v for k, v in r.items() if not k.startswith(("lin_", "ang_"))} for r in split]
+    for summary in (split, mixed, [r for r in split if r["h"] == 0.1]):
+        fig = _fig7._figure(summary, "l2_over_n", "a title, as long as the study's own one")
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        renderer = canvas.get_renderer()
+        page = fig.bbox
+        panels = [ax.get_tightbbox(renderer) for ax in fig.axes]
+        others = [fig.legends[0].get_window_extent(renderer), fig._suptitle.get_window_extent()]
+        for k, box in enumerate(panels):
+            assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+            assert box.y1 <= page.y1
+            for other in panels[k + 1 :] + others:
+                assert _boxes_apart(box, other), (k, box, other)
+        for other in others:
+            assert page.x0 <= other.x0 and other.x1 <= page.x1
+            assert page.y0 <= other.y0 and other.y1 <= page.y1
