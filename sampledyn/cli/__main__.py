@@ -1,7 +1,5 @@
 """``python -m sampledyn.cli``: the ``sampledyn`` command."""
 
-import sys
+from ._main import console
 
-from . import main
-
-sys.exit(main())
+console()
