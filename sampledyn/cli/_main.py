@@ -261,6 +261,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``sampledyn`` command; returns 0 on success, raises ``SystemExit``
     with the status of the table in ``sampledyn --help`` otherwise."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    frozen_before = gc.get_freeze_count()  # (a caller's own frozen objects stay so)
     _closed_streams()
     debug = "--debug" in argv or os.environ.get(_DEBUG_ENV, "") not in ("", "0")
     parser = build_parser()
@@ -299,6 +300,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if stop_notice is not None:
             stop_notice()
+        if not frozen_before:  # a command may freeze what it loaded (``reproduce``)
+            gc.unfreeze()
     return int(result or 0)
 
 

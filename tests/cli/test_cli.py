@@ -64,3 +64,32 @@ def test_estimated_rules_are_known_to_a_fresh_command():
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert "ABe2" in run.stdout
+
+
+def test_reproduce_freezes_what_it_loaded_while_the_cells_run_and_undoes_it(tmp_path):
+    """While the results come in, the modules, kernels and plan loaded before are out
+    of the collector's reach (gc.freeze); main() returns with nothing of it frozen, and
+    a caller's own frozen objects stay frozen."""
+    import gc
+
+    seen: list[int] = []
+
+    def watch(phase, info):
+        if phase == "start":
+            seen.append(gc.get_freeze_count())
+
+    args = ["-q", "reproduce", "fig7", "--T", "40", "--after", "20", "--h", "0.5",
+            "--seeds", "1", "--workers", "1"]  # fmt: skip
+    gc.callbacks.append(watch)
+    try:
+        assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    finally:
+        gc.callbacks.remove(watch)
+    assert max(seen) > 10_000 and gc.get_freeze_count() == 0
+    gc.freeze()
+    try:
+        mine = gc.get_freeze_count()
+        assert main([*args, "--out", str(tmp_path / "b")]) == 0
+        assert gc.get_freeze_count() >= mine
+    finally:
+        gc.unfreeze()
