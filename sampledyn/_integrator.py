@@ -51,6 +51,8 @@ no switching value says so).
 from __future__ import annotations
 
 import math
+import os
+import sys
 import threading
 import warnings
 from typing import Any
@@ -1009,11 +1011,98 @@ integrate_smooth = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
 _COMPILE_LOCK = threading.Lock()
 
 
+def _specialisation(smooth: bool) -> tuple[Any, Any]:
+    return (integrate_smooth, _INTEGRATE_SMOOTH_SIG) if smooth else (integrate, _INTEGRATE_SIG)
+
+
+def _in_disk_cache(disp: Any, sig: Any) -> bool:
+    """Whether numba's cache on disk holds ``disp`` compiled for ``sig`` (its index
+    entry: what ``disp.compile(sig)`` would load). True when that cannot be told (a
+    numba whose cache is laid out otherwise): the caller then compiles as usual."""
+    try:
+        cache = disp._cache
+        key = cache._index_key(sig, disp.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except Exception:  # numba's private cache layout changed: assume cached
+        return True
+
+
+#: smooth -> the forked process compiling that specialisation (:func:`compile_aside`);
+#: a process forked from this one (a worker) has none: it is not that process's parent.
+_ASIDE: dict[bool, Any] = {}
+if hasattr(os, "register_at_fork"):  # (not on Windows, which does not fork)
+    os.register_at_fork(after_in_child=_ASIDE.clear)
+#: How long :func:`wait_aside` waits (the compile takes 6-7 s; a child still running
+#: after this is stuck, and this process compiles the integrator itself).
+_ASIDE_TIMEOUT_S = 600.0
+
+
+def _compile_quietly(smooth: bool) -> None:  # pragma: no cover - runs in the child
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)  # a compile notice or a warning is the parent's to give
+    os.dup2(devnull, 2)
+    integrator(smooth)
+
+
+def compile_aside(smooth: bool) -> None:
+    """Start compiling :func:`integrator` ``(smooth)`` in a forked process, when it is
+    neither compiled here nor in numba's cache on disk (a first run after an install),
+    so that this process compiles the model's kernels meanwhile: the integrator is
+    the longest compile (6-7 s on the 2-core development machine, against 2-3 s for a
+    vehicle's kernels; docs/benchmarks.md). The child saves it in numba's cache, and
+    :func:`integrator` waits for the child, then loads it from there. Linux only, and
+    only from a process with no other thread running (call it before starting any);
+    does nothing otherwise or when there is nothing to compile."""
+    disp, sig = _specialisation(smooth)
+    if (
+        not sys.platform.startswith("linux")
+        or threading.active_count() > 1  # a fork would copy a lock another thread holds
+        or smooth in _ASIDE
+        or sig.args in disp.signatures
+        or _in_disk_cache(disp, sig)
+    ):
+        return
+    import multiprocessing
+
+    child = multiprocessing.get_context("fork").Process(
+        target=_compile_quietly, args=(smooth,), name="sampledyn-compile", daemon=True
+    )
+    child.start()
+    _ASIDE[smooth] = child
+
+
+def compiling_aside() -> bool:
+    """Whether a process of :func:`compile_aside` is compiling for this one."""
+    return bool(_ASIDE)
+
+
+def wait_aside(smooth: bool) -> None:
+    """Wait for the process of :func:`compile_aside` compiling the ``smooth``
+    specialisation, if any, as a numba compile event (so the compile notice of the
+    command line is said if nothing else here compiled first); the process is killed
+    if the wait is interrupted (Ctrl-C) or times out (``_ASIDE_TIMEOUT_S``)."""
+    child = _ASIDE.pop(smooth, None)
+    if child is None:
+        return
+    from numba.core import event
+
+    disp, sig = _specialisation(smooth)
+    data = {"dispatcher": disp, "args": sig.args, "return_type": sig.return_type}
+    try:
+        with event.trigger_event("numba:compile", data=data):
+            child.join(_ASIDE_TIMEOUT_S)
+    finally:
+        if child.is_alive():  # interrupted, or stuck: this process compiles it
+            child.kill()
+            child.join()
+
+
 def integrator(smooth: bool) -> Any:
     """:func:`integrate` compiled (or loaded from numba's cache) for a model without
     jumps (``smooth``: ``integrate_smooth``, called with ``grad=None``) or with them."""
-    disp, sig = (integrate_smooth, _INTEGRATE_SMOOTH_SIG) if smooth else (integrate, _INTEGRATE_SIG)
+    disp, sig = _specialisation(smooth)
     if sig.args not in disp.signatures:
+        wait_aside(smooth)  # then compile() loads what the child saved
         with _COMPILE_LOCK, warnings.catch_warnings():
             # numba warns that first-class function types are experimental when it
             # types the kernels passed down the helpers; they are what makes the

@@ -340,6 +340,16 @@ def _initial_state(model: Model, x0: Any) -> np.ndarray:
     return checks.finite_array(x0, "x0", (model.nx,))
 
 
+def compile_integrator_aside(model: Model) -> None:
+    """Start compiling the integrator specialisation ``model`` is simulated with (the
+    smooth one unless it has jumps: the rule of :class:`_Integration`) in a forked
+    process, on a first run after an install (:func:`sampledyn._integrator.compile_aside`:
+    Linux, nothing compiled or cached yet; call it before this process starts a
+    thread). Its simulations wait for that process, then load what it compiled."""
+    get = getattr(model, "jump_kernel", None)
+    _int.compile_aside(smooth=get is None or get() is None)
+
+
 class _Integration:
     """One run of the compiled integrator (:func:`sampledyn._integrator.integrate`):
     the model's kernels and the integrator's state, which persists from call to call,

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, types
 
 from .. import _checks as checks
+from .. import _integrator as _int
 from .._noise import add_noise
 from .._simulate import integrate_intervals, switching
 from .._trajectory import Trajectory
@@ -97,6 +98,11 @@ def _outside(X, n, x_lo, x_hi):
         if not x_lo[j] <= X[n, j] <= x_hi[j]:
             return True
     return False
+
+
+# The loop calls the integrator's smooth specialisation: compiled below (or loaded from
+# numba's cache), after the process compiling it on a first run has saved it there.
+_int.wait_aside(True)
 
 
 @njit(_LOOP_SIG, cache=True)

@@ -97,3 +97,68 @@ def test_a_kernel_that_allocates_does_not_change_the_samples():
     b = sd.simulate(FunctionModel(allocating, 2, 1, x0=[1.0, 0.0]), signal, T=5.0, h=0.1)
     assert np.array_equal(a.x, b.x)
     assert np.array_equal(a.certificate.per_interval, b.certificate.per_interval)
+
+
+@pytest.mark.slow
+def test_a_first_run_compiles_the_integrator_aside_and_loads_it_from_the_cache(
+    tmp_path, monkeypatch
+):
+    """Empty numba cache (issue 23, a first run): compile_aside forks a process that
+    compiles the integrator into the cache; integrator() waits for it (a numba compile
+    event, so the compile notice is said) and loads what it saved instead of compiling
+    it a second time. Once compiled, compile_aside starts nothing."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    found = run_python(
+        """
+        import json
+        from numba.core import event
+        from sampledyn import _integrator as I
+
+        seen = []
+
+        class Seen(event.Listener):
+            def on_start(self, ev):
+                seen.append(getattr(ev.data["dispatcher"], "__name__", ""))
+
+            def on_end(self, ev):
+                pass
+
+        event.register("numba:compile", Seen())
+        I.compile_aside(True)
+        aside = I.compiling_aside()
+        child = I._ASIDE[True]
+        disp = I.integrator(True)
+        after = I.compiling_aside()
+        I.compile_aside(True)
+        print(json.dumps({
+            "aside": aside, "exit": child.exitcode, "after": after,
+            "again": I.compiling_aside(), "hits": sum(disp.stats.cache_hits.values()),
+            "misses": sum(disp.stats.cache_misses.values()), "events": seen,
+        }))
+        """
+    )
+    assert found["aside"] and found["exit"] == 0
+    assert found["hits"] == 1 and found["misses"] == 0  # loaded, not compiled here
+    assert not found["after"] and not found["again"]
+    assert found["events"] == ["_integrate"]  # the wait, as one compile of it
+
+
+def test_the_disk_cache_check_sees_what_numba_saved(tmp_path, monkeypatch):
+    """compile_aside's test (_in_disk_cache): False before numba saved a function for
+    a signature, True after, as numba's own load would find it."""
+    import sys
+
+    from numba import float64
+
+    from sampledyn import _integrator as I
+
+    (tmp_path / "aside_probe.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "aside_probe", raising=False)
+    probe = importlib.import_module("aside_probe")
+    sig = float64(float64)
+    assert not I._in_disk_cache(probe.twice, sig)
+    probe.twice.compile(sig)
+    assert I._in_disk_cache(probe.twice, sig)

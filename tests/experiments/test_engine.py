@@ -295,19 +295,29 @@ def test_warm_up_of_the_cells_runs_the_first_group_on_a_short_case(tmp_path, mon
     """What a local pool compiles beside the first simulation: the chunk's first group,
     with the chunk's rules and norms, on 20 samples of the chunk's own period (taken from
     the simulation's period, as the real samples are), errors counted over the last 10
-    (after every rule's history, as in a study: the one-pass norms, not the fallback)."""
-    from sampledyn.experiments.sweep import _prediction
+    (after every rule's history, as in a study: the one-pass norms, not the fallback).
+    The samples are stand-ins, the input's with the state held at x0: nothing is
+    simulated (on a first run the integrator is still compiling elsewhere)."""
+    from sampledyn.experiments.sweep import _compute, _prediction
 
     study = plan_study(load_config(write_sweep(tmp_path / "s.toml", h="[0.01, 0.02]")))
     chunk = next(c for c in study.chunks(study.cells, 2) if c.h == 0.02)
     sim = study.sims[chunk.sim_key]
     assert sim.h == 0.01  # h = 0.02 takes every second sample of it
     seen = []
+    simulated = []
     monkeypatch.setattr(_prediction, "compute_chunk", lambda *a: seen.append(a))
+    monkeypatch.setattr(_compute, "exact_samples", lambda *a: simulated.append(a))
     study.setup.kind.warm_up_cells(study.setup, sim, chunk)
+    assert simulated == []
     ((short, shared, part),) = seen
     assert short.after == pytest.approx(10 * 2 * 0.01) and short.T == pytest.approx(20 * 2 * 0.01)
     assert shared.traj.n_samples == 21 and np.allclose(np.diff(shared.traj.t), 0.02)
+    assert shared.traj.on_uniform_grid  # the rules' fixed-step code, as on exact samples
+    x0 = study.setup.model.default_x0 if study.setup.x0 is None else study.setup.x0
+    np.testing.assert_array_equal(shared.traj.x, np.tile(x0, (21, 1)))
+    signal = study.setup.signals[sim.input_index]
+    np.testing.assert_array_equal(shared.traj.u, signal(shared.traj.t))
     assert part.groups == chunk.groups[:1] and part.traj_key == chunk.traj_key
 
     def fails(*_a):

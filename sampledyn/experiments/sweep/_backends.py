@@ -31,6 +31,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from typing import Any
 
 from ... import _checks as checks
+from ..._integrator import compiling_aside
 from ._cells import Chunk, Setup, SimPlan, compute_cells, prepare_shared, warm_up_cells
 from ._compute import ChunkResult, SimResult
 
@@ -142,15 +143,24 @@ def worker_init(parent: int) -> None:
     retain_freed_memory()
 
 
-def start_pool(setup: Setup, workers: int, warm_up_h: float | None = None) -> ProcessPoolExecutor:
+def start_pool(
+    setup: Setup,
+    workers: int,
+    warm_up_h: float | None = None,
+    first: tuple[SimPlan, Chunk] | None = None,
+) -> ProcessPoolExecutor:
     """A pool of ``workers`` processes, started now (see :func:`worker_init`).
 
     On Linux the workers fork from this process after compiling the kernels once (at
     period ``warm_up_h``); elsewhere they are spawned (fork is unsafe on macOS) and
-    compile on their own.
+    compile on their own. While the integrator compiles in another process (a first
+    run: :func:`sampledyn._simulate.compile_integrator_aside`), the cells' kernels of
+    the ``first`` task (its simulation and chunk) compile here, on stand-in samples.
     """
     checks.count(workers, "workers")
     if sys.platform.startswith("linux"):
+        if first is not None and compiling_aside():
+            setup.kind.warm_up_cells(setup, *first)
         if warm_up_h is not None:
             # Compile here once: the workers fork from this process and inherit the
             # compiled code (numba compiles per process otherwise).
@@ -201,7 +211,7 @@ def local_processes(
     trajectory's samples), and the next simulation of ``sims`` (in plan order) runs
     meanwhile, so no worker waits for exact samples between trajectories. With
     ``warm_up`` (a pool of two workers or more) another worker compiles the cells'
-    kernels on a short case while the first simulation runs
+    kernels on a short case (stand-in samples) while the first simulation runs
     (:meth:`~sampledyn.experiments.sweep._cells.CellKind.warm_up_cells`), so a first
     run after an install compiles them once, not once per worker, and not after the
     exact samples.

@@ -264,9 +264,11 @@ class CellKind:
 
     def warm_up_cells(self, setup: Setup, sim: SimPlan, chunk: Chunk) -> None:
         """Compile what the cells of ``chunk`` need, on a short case, in a local worker
-        while another simulates the exact samples: the compiled kernels go to numba's
-        disk cache, from which the other workers load them instead of compiling them
-        too. Nothing is returned or stored; failures are left to the cells to report."""
+        while another simulates the exact samples (or, on a first run, in the sweep
+        process while the integrator compiles in another: it must not need the
+        integrator): the compiled kernels go to numba's disk cache, from which the
+        other workers load them instead of compiling them too. Nothing is returned or
+        stored; failures are left to the cells to report."""
         return None
 
     def decode(self, row: dict[str, Any]) -> dict[str, Any]:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -321,9 +321,11 @@ def _check_memory(config: SweepConfig, model: Any, p: float) -> None:
     )
 
 
-def plan_study(config: SweepConfig) -> Study:
+def plan_study(config: SweepConfig, on_model: Callable[[Any], object] | None = None) -> Study:
     """Build the model and inputs, check them against the grid, and key the
     trajectories; the cells are listed lazily (:meth:`Study.iter_groups`).
+    ``on_model`` is called with the model as soon as it is built (the run on local
+    processes starts compiling the integrator there: :func:`run_sweep`).
 
     Raises
     ------
@@ -336,6 +338,8 @@ def plan_study(config: SweepConfig) -> Study:
 
     kind = get_cell_kind(config.kind)
     model = _model(config)
+    if on_model is not None:
+        on_model(model)
     if config.x0 is not None and len(config.x0) != model.nx:
         raise ValueError(
             f"`x0` needs {model.nx} numbers for {config.vehicle!r}, got {len(config.x0)}."

@@ -12,7 +12,10 @@ import dataclasses
 import warnings
 from typing import Any
 
+import numpy as np
+
 from ..._simulate import simulate
+from ..._trajectory import Trajectory
 from ._cells import CellKind, Chunk, Setup, SimPlan
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
 
@@ -49,11 +52,17 @@ class PredictionCells(CellKind):
                 pass  # a real failure is reported by the task that meets it
 
     def warm_up_cells(self, setup: Setup, sim: SimPlan, chunk: Chunk) -> None:
-        # The first group of the chunk on 20 samples at the chunk's period (the same
-        # argument types as the real cells: the same compiled specialisations), the
-        # norms over the last 10, after every rule's history, as in a study.
+        # The first group of the chunk on 20 samples at the chunk's period, the norms
+        # over the last 10, after every rule's history, as in a study. The samples are
+        # stand-ins (the input's, the state held at x0), so the integrator is not
+        # needed: on a first run it is still compiling elsewhere (start_pool). They
+        # are a Trajectory as exact samples are (the same argument types: the same
+        # compiled specialisations), taken every k-th as the study's are.
         k = max(k for _key, _h, k in sim.members)
-        short = dataclasses.replace(setup, T=20 * k * sim.h, after=10 * k * sim.h, reference=None)
+        n = 20 * k + 1
+        short = dataclasses.replace(
+            setup, T=(n - 1) * sim.h, after=10 * k * sim.h, reference=_stand_in(setup, sim, n)
+        )
         part = Chunk(chunk.traj_key, chunk.h, chunk.groups[:1], chunk.sim_key)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -62,6 +71,20 @@ class PredictionCells(CellKind):
                 compute_chunk(short, shared, part)
             except Exception:  # a real failure is reported by the cells that meet it
                 pass
+
+
+def _stand_in(setup: Setup, sim: SimPlan, n: int) -> Trajectory:
+    """``n`` samples at period ``sim.h`` of the study's input with the state held at
+    the initial state: what :meth:`PredictionCells.warm_up_cells` compiles on."""
+    model = setup.model
+    signal = setup.signals[sim.input_index]
+    t = np.arange(n) * sim.h
+    x0 = np.asarray(model.default_x0 if setup.x0 is None else setup.x0, dtype=float)
+    return Trajectory(
+        t=t, x=np.tile(x0, (n, 1)), u=signal(t), h=sim.h, state_names=model.state_names,
+        state_units=model.state_units, input_names=model.input_names,
+        input_units=model.input_units, signal=signal,
+    )  # fmt: skip
 
 
 #: The registered prediction kind (the default of every sweep file).

@@ -30,6 +30,7 @@ from typing import Any
 
 from ... import _checks as checks
 from ..._files import parse_json
+from ..._simulate import compile_integrator_aside
 from ...exceptions import SweepConfigError
 from ._backends import (
     check_dask_workers,
@@ -464,7 +465,10 @@ def run_sweep(
     if isinstance(config, Study):
         study = config
     else:
-        study = plan_study(config if isinstance(config, SweepConfig) else load_config(config))
+        study = plan_study(
+            config if isinstance(config, SweepConfig) else load_config(config),
+            on_model=_compile_ahead(workers),
+        )
     check_grid_size(study, max_cells)
     if store is None:
         store = MemoryStore()
@@ -518,6 +522,16 @@ def run_sweep(
         summary.compute_seconds, summary.simulate_seconds, summary.elsewhere,
         summary.duplicates, summary.status,
     )  # fmt: skip
+
+
+def _compile_ahead(workers: int | None) -> Callable[[Any], None] | None:
+    """``plan_study``'s ``on_model`` for a run on local processes (``workers``): on a
+    first run after an install the integrator compiles in a forked process while this
+    one plans and compiles the model's kernels (the workers fork later from here and
+    inherit both; the cells' kernels compile here too, :func:`start_pool`): the first
+    ``reproduce fig7`` took 11.8-13.1 s instead of 16.7-16.9 s (docs/benchmarks.md).
+    Not for Dask (its workers compile on their own) nor in process."""
+    return compile_integrator_aside if workers is not None else None
 
 
 def _backend(
@@ -619,7 +633,7 @@ def _run(
         elif workers is not None:
             # Fork the workers before this process starts any thread (heartbeat, bar).
             h = next(iter(sims.values())).h
-            pool = start_pool(setup, workers, warm_up_h=h)
+            pool = start_pool(setup, workers, warm_up_h=h, first=(sims[first.sim_key], first))
             results = local_processes(
                 pool, setup, sims, tasks, in_flight=2 * workers, warm_up=workers > 1
             )
@@ -768,7 +782,7 @@ def run_study(
     afterwards (another run still computing it).
     """
     cfg = config if isinstance(config, SweepConfig) else load_config(config)
-    study = plan_study(cfg)
+    study = plan_study(cfg, on_model=_compile_ahead(options.get("workers")))
     mem = MemoryStore() if store is None else None
     order: list[str] = []  # the cells' keys in plan order, as the run lists them
     summary = run_sweep(study, mem if mem is not None else store, order=order, **options)
