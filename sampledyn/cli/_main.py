@@ -179,8 +179,8 @@ def compile_notice(command: str, stream: Any) -> Callable[[], None]:
                 try:
                     stream.write(
                         f"sampledyn {command}: compiling the numerical kernels, once for this "
-                        f"installation ({COMPILE_ESTIMATE}; later runs load them from the "
-                        "cache in under a second)...\n"
+                        f"installation and model ({COMPILE_ESTIMATE}; later runs load them "
+                        "from the cache in under a second)...\n"
                     )
                     stream.flush()
                 except (OSError, ValueError):
