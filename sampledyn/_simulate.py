@@ -347,7 +347,11 @@ def compile_integrator_aside(model: Model) -> None:
     Linux, nothing compiled or cached yet; call it before this process starts a
     thread). Its simulations wait for that process, then load what it compiled."""
     get = getattr(model, "jump_kernel", None)
-    _int.compile_aside(smooth=get is None or get() is None)
+    try:
+        smooth = get is None or get() is None
+    except Exception:  # the simulations report it (as the cells' failure), not the plan
+        return
+    _int.compile_aside(smooth=smooth)
 
 
 class _Integration:

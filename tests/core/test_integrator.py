@@ -162,3 +162,28 @@ def test_the_disk_cache_check_sees_what_numba_saved(tmp_path, monkeypatch):
     assert not I._in_disk_cache(probe.twice, sig)
     probe.twice.compile(sig)
     assert I._in_disk_cache(probe.twice, sig)
+
+
+def test_the_specialisation_compiled_aside_is_the_models(monkeypatch):
+    """compile_integrator_aside follows simulate's rule (smooth unless the model has
+    jumps); a model whose jump kernel fails is left to its simulations to report."""
+    from sampledyn import _integrator as I
+    from sampledyn import _simulate
+
+    asked = []
+    monkeypatch.setattr(I, "compile_aside", lambda smooth: asked.append(smooth))
+
+    class Model:
+        def __init__(self, jumps):
+            self.jumps = jumps
+
+        def jump_kernel(self):
+            if isinstance(self.jumps, Exception):
+                raise self.jumps
+            return self.jumps
+
+    _simulate.compile_integrator_aside(Model(None))
+    _simulate.compile_integrator_aside(Model(("branch", "grad", None, None)))
+    _simulate.compile_integrator_aside(object())  # no jump kernel at all: smooth
+    _simulate.compile_integrator_aside(Model(ValueError("no branch kernel")))
+    assert asked == [True, False, True]

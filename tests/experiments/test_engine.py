@@ -325,3 +325,5 @@ def test_warm_up_of_the_cells_runs_the_first_group_on_a_short_case(tmp_path, mon
 
     monkeypatch.setattr(_prediction, "compute_chunk", fails)
     study.setup.kind.warm_up_cells(study.setup, sim, chunk)  # left to the cells to report
+    monkeypatch.setattr(_prediction, "_stand_in", fails)
+    study.setup.kind.warm_up_cells(study.setup, sim, chunk)  # so is a stand-in's failure

@@ -60,13 +60,14 @@ class PredictionCells(CellKind):
         # compiled specialisations), taken every k-th as the study's are.
         k = max(k for _key, _h, k in sim.members)
         n = 20 * k + 1
-        short = dataclasses.replace(
-            setup, T=(n - 1) * sim.h, after=10 * k * sim.h, reference=_stand_in(setup, sim, n)
-        )
         part = Chunk(chunk.traj_key, chunk.h, chunk.groups[:1], chunk.sim_key)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
+                stand_in = _stand_in(setup, sim, n)
+                short = dataclasses.replace(
+                    setup, T=(n - 1) * sim.h, after=10 * k * sim.h, reference=stand_in
+                )
                 shared = simulate_trajectory(short, sim)[chunk.traj_key]
                 compute_chunk(short, shared, part)
             except Exception:  # a real failure is reported by the cells that meet it
