@@ -529,7 +529,8 @@ def _compile_ahead(workers: int | None) -> Callable[[Any], None] | None:
     first run after an install the integrator compiles in a forked process while this
     one plans and compiles the model's kernels (the workers fork later from here and
     inherit both; the cells' kernels compile here too, :func:`start_pool`): the first
-    ``reproduce fig7`` took 11.8-13.1 s instead of 16.7-16.9 s (docs/benchmarks.md).
+    ``reproduce fig7`` took 11.8-16.2 s (median 13.0) instead of 16.7-16.9 s
+    (docs/benchmarks.md).
     Not for Dask (its workers compile on their own) nor in process."""
     return compile_integrator_aside if workers is not None else None
 
