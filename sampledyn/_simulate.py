@@ -340,15 +340,22 @@ def _initial_state(model: Model, x0: Any) -> np.ndarray:
     return checks.finite_array(x0, "x0", (model.nx,))
 
 
+def _jump_kernels(model: Model) -> Any:
+    """The model's jump kernels (``model.jump_kernel()``), None for a model without
+    jumps: it is simulated with the integrator's smooth specialisation."""
+    get = getattr(model, "jump_kernel", None)
+    return get() if get is not None else None
+
+
 def compile_integrator_aside(model: Model) -> None:
     """Start compiling the integrator specialisation ``model`` is simulated with (the
-    smooth one unless it has jumps: the rule of :class:`_Integration`) in a forked
-    process, on a first run after an install (:func:`sampledyn._integrator.compile_aside`:
-    Linux, nothing compiled or cached yet; call it before this process starts a
-    thread). Its simulations wait for that process, then load what it compiled."""
-    get = getattr(model, "jump_kernel", None)
+    smooth one unless it has jumps, :func:`_jump_kernels`, as in :class:`_Integration`)
+    in a forked process, on a first run after an install
+    (:func:`sampledyn._integrator.compile_aside`: Linux, nothing compiled or cached yet;
+    call it before this process starts a thread). Its simulations wait for that
+    process, then load what it compiled."""
     try:
-        smooth = get is None or get() is None
+        smooth = _jump_kernels(model) is None
     except Exception:  # the simulations report it (as the cells' failure), not the plan
         return
     _int.compile_aside(smooth=smooth)
@@ -367,8 +374,7 @@ class _Integration:
         self.sw, sp, input_only = switching(model)
         self.sp = readonly(np.asarray(sp, dtype=float))
         n_sw = int(np.asarray(input_only).shape[0])
-        get = getattr(model, "jump_kernel", None)
-        jumps = get() if get is not None else None
+        jumps = _jump_kernels(model)
         if jumps is None:
             self.rhs, self.grad = rhs, None  # the integrator's smooth specialisation
             self.q = np.array(p, dtype=float)

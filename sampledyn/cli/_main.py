@@ -157,7 +157,7 @@ def _is_terminal(stream: Any) -> bool:
 # What a first run after an install compiles, measured: `reproduce fig7` on the
 # 2-core development machine, about 13 CPU s of compiling, the integrator's 6-8 s in a
 # process of its own beside the rest (benchmarks/bench_fig7.py, row "first run": the
-# whole run 11.8-13.3 s wall on the quiet machine; docs/benchmarks.md). The figure
+# whole run 11.8-16.2 s wall on the quiet machine; docs/benchmarks.md). The figure
 # given is of the whole first run, rounded up for a loaded machine.
 COMPILE_ESTIMATE = "about 15 s"
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._simulate import simulate
+from ..._simulate import _initial_state, simulate
 from ..._trajectory import Trajectory
 from ._cells import CellKind, Chunk, Setup, SimPlan
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
@@ -80,9 +80,9 @@ def _stand_in(setup: Setup, sim: SimPlan, n: int) -> Trajectory:
     model = setup.model
     signal = setup.signals[sim.input_index]
     t = np.arange(n) * sim.h
-    x0 = np.asarray(model.default_x0 if setup.x0 is None else setup.x0, dtype=float)
+    x = np.tile(_initial_state(model, setup.x0), (n, 1))
     return Trajectory(
-        t=t, x=np.tile(x0, (n, 1)), u=signal(t), h=sim.h, state_names=model.state_names,
+        t=t, x=x, u=signal(t), h=sim.h, state_names=model.state_names,
         state_units=model.state_units, input_names=model.input_names,
         input_units=model.input_units, signal=signal,
     )  # fmt: skip
