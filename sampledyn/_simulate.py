@@ -262,7 +262,7 @@ def simulate(
     """
     n_int = check_period(h, T)
     _check_model(model, signal, h)
-    x0 = _initial_state(model, x0)
+    x0 = initial_state(model, x0)
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError(f"need 0 < rtol < 1 and atol > 0, got rtol={rtol}, atol={atol}.")
     checks.count(max_steps, "max_steps")
@@ -334,7 +334,10 @@ def _check_model(model: Model, signal: Any, h: float) -> None:
     signal.check_sampling(float(h))
 
 
-def _initial_state(model: Model, x0: Any) -> np.ndarray:
+def initial_state(model: Model, x0: Any) -> np.ndarray:
+    """The state a simulation starts from, shape (nx,): ``x0``, or the model's
+    ``default_x0`` when None. Raises ArgumentError naming ``x0`` when it is not a
+    finite array of that shape."""
     if x0 is None:
         x0 = model.default_x0
     return checks.finite_array(x0, "x0", (model.nx,))

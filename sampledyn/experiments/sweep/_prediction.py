@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._simulate import _initial_state, simulate
+from ..._simulate import initial_state, simulate
 from ..._trajectory import Trajectory
 from ._cells import CellKind, Chunk, Setup, SimPlan
 from ._compute import ChunkResult, SimResult, compute_chunk, simulate_trajectory
@@ -80,7 +80,7 @@ def _stand_in(setup: Setup, sim: SimPlan, n: int) -> Trajectory:
     model = setup.model
     signal = setup.signals[sim.input_index]
     t = np.arange(n) * sim.h
-    x = np.tile(_initial_state(model, setup.x0), (n, 1))
+    x = np.tile(initial_state(model, setup.x0), (n, 1))
     return Trajectory(
         t=t, x=x, u=signal(t), h=sim.h, state_names=model.state_names,
         state_units=model.state_units, input_names=model.input_names,
