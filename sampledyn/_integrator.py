@@ -70,6 +70,7 @@ from .models._jumps import decide, sliding_weight
 __all__ = [
     "DEFAULT_MAX_STEPS",
     "INTERSECTION",
+    "ENDS_FULL",
     "LOG_FULL",
     "NONFINITE",
     "N_VECTORS",
@@ -79,6 +80,8 @@ __all__ = [
     "STALL",
     "STATE_SLOTS",
     "UNDERFLOW",
+    "certify_steps",
+    "certifier",
     "integrate",
     "integrate_intervals",
 ]
@@ -99,6 +102,7 @@ REPELLING = 5
 INTERSECTION = 6
 PAUSED = 7
 LOG_FULL = 8
+ENDS_FULL = 9  # the step ends' array is full (a main run certified elsewhere)
 
 # Slots of the state array ``st`` (from _S_G on: the switching values at the end of
 # the last interval).
@@ -117,6 +121,7 @@ S_ERR_K = 11  # switching value of a refusal, or the last event located (-1: non
 S_ERR_A = 12  # normal speeds of a refusal (sigma_-, sigma_+), or the surface slid on
 S_ERR_B = 13
 S_FRESH = 14  # switching value decided at time S_TC (its next step trusts the decision)
+S_NEND = 15  # entries written to ``ends`` (the end times of the accepted steps)
 _S_G = 16
 STATE_SLOTS = _S_G
 
@@ -709,13 +714,15 @@ def _accept(
 
 @_helper
 def _advance(
-    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, ctl, st, log, work, y, yf,
-    ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
+    rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, ta, tb, ctl, st, log, ends, work, y,
+    yf, ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Steps of the interval [ta, tb] from the state in (st, V) until its end (OK), a
     pause after ``budget`` attempts in this call, or a stop; (status, work done).
-    ``ctl``: rtol, atol, certify, budget, max_steps. y ... gb: the rows of V, U and E
-    the steps use, made once (:func:`_intervals`)."""
+    ``ctl``: rtol, atol, certify, budget, max_steps. ``ends`` (empty: none kept): the
+    end time of every accepted step, for a certifying run elsewhere
+    (:func:`certify_steps`); the call returns :data:`ENDS_FULL` when it is full.
+    y ... gb: the rows of V, U and E the steps use, made once (:func:`_intervals`)."""
     rtol, atol, certify = ctl[0], ctl[1], ctl[2] != 0.0
     budget, max_steps = ctl[3], ctl[4]
     min_dt = 1e-12 * (tb - ta)
@@ -723,9 +730,15 @@ def _advance(
     dt_free = st[S_DT]
     rejected = st[S_REJ] != 0.0
     status = OK
+    keep_ends = ends.shape[0] > 0
     while tc < tb and status == OK:
-        if work >= budget or st[S_WORK] >= max_steps or st[S_NLOG] + 4.0 > log.shape[0]:
-            status = _checkpoint(st, log, work, budget, max_steps, tc)
+        if (
+            work >= budget
+            or st[S_WORK] >= max_steps
+            or st[S_NLOG] + 4.0 > log.shape[0]
+            or (keep_ends and st[S_NEND] >= ends.shape[0])
+        ):
+            status = _checkpoint(st, log, ends, work, budget, max_steps, tc)
             break
         st[S_WORK] += 1.0
         work += 1
@@ -754,6 +767,7 @@ def _advance(
             step = tn - tc
             if certify:
                 _half_steps(rhs, grad, q, mode, S, U, V, G, tc, step, yf, yfm, yfn, Kf, ytmp, u)
+            _keep_end(ends, st, tn)
             tc = tn
             for j in range(y.shape[0]):
                 y[j] = ynew[j]
@@ -776,14 +790,46 @@ def _advance(
 
 
 @_helper
-def _checkpoint(st, log, work, budget, max_steps, tc):  # pragma: no cover - compiled
-    """Why the steps stop before an attempt: a pause (the call's budget is spent, or
-    the sliding log may fill), or a stalled interval."""
+def _checkpoint(st, log, ends, work, budget, max_steps, tc):  # pragma: no cover - compiled
+    """Why the steps stop before an attempt: a pause (the call's budget is spent, the
+    sliding log may fill, the step ends are full), or a stalled interval."""
     if work >= budget:
         return PAUSED
     if st[S_NLOG] + 4.0 > log.shape[0]:
         return LOG_FULL
+    if ends.shape[0] > 0 and st[S_NEND] >= ends.shape[0]:
+        return ENDS_FULL
     return _refuse(st, STALL, tc, st[S_ERR_K], 0.0, 0.0)
+
+
+@_helper
+def _keep_end(ends, st, tn):  # pragma: no cover - compiled
+    """The end time ``tn`` of an accepted step into ``ends``, if it keeps them."""
+    if ends.shape[0] > 0:
+        ends[int(st[S_NEND])] = tn
+        st[S_NEND] += 1.0
+
+
+@_helper
+def _certify_intervals(rhs, q, mode, S, U, V, G, t, hold, X, steps, ends, diff):  # pragma: no cover
+    """:func:`certify_steps` on borrowed arrays: interval n from X[n], its steps[n]
+    steps ending at the next entries of ``ends``, each as two half steps."""
+    yf, yfm, yfn, ytmp = V[YF], V[YFM], V[YFN], V[YTMP]
+    Kf, u = V[KF : KF + _NS + 1], U[U_]
+    p = 0
+    for n in range(steps.shape[0]):
+        for j in range(U.shape[1]):
+            U[HOLD, j] = hold[n, j]
+        for j in range(X.shape[1]):
+            yf[j] = X[n, j]
+        tc = t[n]
+        for _i in range(steps[n]):
+            tn = ends[p]
+            p += 1
+            _half_steps(rhs, None, q, mode, S, U, V, G, tc, tn - tc, yf, yfm, yfn, Kf, ytmp, u)
+            tc = tn
+        for j in range(X.shape[1]):
+            diff[n, j] = X[n + 1, j] - yf[j]
 
 
 # ------------------------------------------------------------ interval ends
@@ -879,7 +925,7 @@ def _finish_jumps(sw, sp, rhs, grad, q, mode, S, U, V, G, E, tb, st):  # pragma:
 @njit(inline="always")
 def _intervals(
     rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t, hold, ctl, n_stop, X, steps, diff,
-    restart, st, log,
+    restart, st, log, ends,
 ):  # fmt: skip  # pragma: no cover - compiled
     """The intervals from st[S_N] to n_stop - 1 (see :func:`integrate`), on borrowed
     arrays (:func:`_borrow`)."""
@@ -903,7 +949,7 @@ def _intervals(
         if status == OK:
             status, work = _advance(
                 rhs, grad, q, mode, sw, sp, sw_info, S, U, V, G, E, t[n], t[n + 1], ctl, st, log,
-                work, y, yf, ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
+                ends, work, y, yf, ynew, ytmp, yfm, yfn, u, K, Kf, ga, gb,
             )  # fmt: skip
         if status == OK:
             _finish(X, steps, diff, V, st, n)
@@ -931,7 +977,7 @@ _I2 = types.Array(types.int64, 2, "C", readonly=True)
 _INTEGRATE_ARGS = (
     RHS_TYPE, JAC_TYPE, _F1, RO1, RO2, RO1, RO2, RO2, RO2, _F, _F, types.boolean, types.int64,
     RHS_TYPE, RO1, _I2, _A2, types.int64[::1], _A2, _B1, _F1, _A2, _A2, types.int64,
-    types.int64,
+    types.int64, _F1,
 )  # fmt: skip
 _INTEGRATE_SIG = types.int64(*_INTEGRATE_ARGS)
 _INTEGRATE_SMOOTH_SIG = types.int64(*(types.none if i == 1 else a
@@ -940,7 +986,7 @@ _INTEGRATE_SMOOTH_SIG = types.int64(*(types.none if i == 1 else a
 
 def _integrate(
     rhs, grad, q, t, hold, offset, amp, freq, phase, rtol, atol, certify, n_stop, sw, sp,
-    sw_info, X, steps, diff, restart, st, V, log, budget, max_steps,
+    sw_info, X, steps, diff, restart, st, V, log, budget, max_steps, ends,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Integrate the intervals [t[n], t[n+1]] from n = st[S_N] to n_stop - 1.
 
@@ -962,6 +1008,9 @@ def _integrate(
         (t, surface, +1 start / -1 end).
     budget : step attempts in this call before it returns :data:`PAUSED`.
     max_steps : step attempts and events per interval before :data:`STALL`.
+    ends : empty, or (a main run with ``certify`` False whose certifying run is
+        :func:`certify_steps`) the end time of each accepted step from entry
+        st[S_NEND] on; :data:`ENDS_FULL` when full.
 
     The certifying half-step run restarts from X[n] only where ``restart[n]`` (a sample
     time): across a breakpoint it goes on, so ``diff`` at the last node of a sampling
@@ -993,7 +1042,7 @@ def _integrate(
         rhs, grad, _borrow(q), _borrow(mode), sw, _borrow(sp), _borrow(sw_info), _borrow(S),
         _borrow(U), _borrow(V), _borrow(G), _borrow(E), _borrow(t), _borrow(hold),
         _borrow(ctl), n_stop, _borrow(X), _borrow(steps), _borrow(diff), _borrow(restart),
-        _borrow(st), _borrow(log),
+        _borrow(st), _borrow(log), _borrow(ends),
     )  # fmt: skip
     st[S_SLIDE] = mode[0]
     _keep(E, U, S, G, ctl)  # (numba would free them after their borrowing, their last use)
@@ -1006,9 +1055,47 @@ def _integrate(
 # and then closed to others: called from Python with the kernels as numba dispatchers,
 # an open one would compile (and cache) a specialisation on their own types instead.
 # No C entry point: compiled callers (integrate_intervals) call them directly.
-integrate = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
-integrate_smooth = _njit(cache=True, no_cfunc_wrapper=True)(_integrate)
+# nogil: the certifying run of :func:`certify_steps` runs in another thread meanwhile.
+integrate = _njit(cache=True, nogil=True, no_cfunc_wrapper=True)(_integrate)
+integrate_smooth = _njit(cache=True, nogil=True, no_cfunc_wrapper=True)(_integrate)
 _COMPILE_LOCK = threading.Lock()
+
+
+def _certify_steps(
+    rhs, q, t, hold, offset, amp, freq, phase, X, steps, ends, diff
+):  # pragma: no cover - compiled
+    """The certifying run of a model without jumps, done beside its main run (in
+    another thread) instead of in lockstep with it: every accepted step of interval n
+    (``steps[n]`` of them, ending at the next entries of ``ends``, the main run's
+    step ends from :func:`integrate`) again as two half steps from X[n], and
+    ``diff[n] = X[n + 1] -`` their result. The same operations in the same order as the
+    lockstep run (:func:`_half_steps`): the same numbers.
+
+    Shapes: t (n + 1,), hold (n + 1, nu), X (n + 1, nx), steps (n,), diff (n, nx);
+    offset, amp, freq, phase: the input, as for :func:`integrate`."""
+    nu = hold.shape[1]
+    U = np.empty((4, nu))
+    S = np.empty((3, nu, amp.shape[1]))
+    for j in range(nu):
+        U[OFFSET, j] = offset[j]
+        for k in range(amp.shape[1]):
+            S[0, j, k] = amp[j, k]
+            S[1, j, k] = freq[j, k]
+            S[2, j, k] = phase[j, k]
+    V = np.empty((N_VECTORS, X.shape[1]))
+    G = np.empty((1, X.shape[1] + 1 + nu))
+    mode = np.full(2, -1, dtype=np.int64)
+    _certify_intervals(
+        rhs, _borrow(q), _borrow(mode), _borrow(S), _borrow(U), _borrow(V), _borrow(G), t,
+        hold, X, steps, ends, diff,
+    )  # fmt: skip
+    _keep(V, U, S, G, q)  # (used after their borrowed copies: see _borrow)
+    mode[0] = -1
+
+
+_RI1 = types.Array(types.int64, 1, "C", readonly=True)
+_CERTIFY_SIG = types.none(RHS_TYPE, _F1, RO1, RO2, RO1, RO2, RO2, RO2, RO2, _RI1, RO1, _A2)
+certify_steps = _njit(cache=True, nogil=True)(_certify_steps)
 
 
 def _specialisation(smooth: bool) -> tuple[Any, Any]:
@@ -1080,10 +1167,15 @@ def wait_aside(smooth: bool) -> None:
     """Wait for the process of :func:`compile_aside` compiling the ``smooth``
     specialisation, if any, as a numba compile event (so the compile notice of the
     command line is said if nothing else here compiled first); the process is killed
-    if the wait is interrupted (Ctrl-C) or times out (``_ASIDE_TIMEOUT_S``)."""
+    if the wait is interrupted (Ctrl-C) or times out (``_ASIDE_TIMEOUT_S``). Waiting
+    for the smooth one, this process first compiles :func:`certifier` (the certifying
+    thread's kernel of the long runs, 1-2.5 s), which it would otherwise compile on the
+    first such run."""
     child = _ASIDE.pop(smooth, None)
     if child is None:
         return
+    if smooth and child.is_alive():
+        certifier()
     from numba.core import event
 
     disp, sig = _specialisation(smooth)
@@ -1114,6 +1206,19 @@ def integrator(smooth: bool) -> Any:
     return disp
 
 
+def certifier() -> Any:
+    """:func:`certify_steps` compiled (or loaded from numba's cache) for its one
+    signature (compile it after :func:`integrator` ``(True)``: it reuses that one's
+    compiled half steps)."""
+    if _CERTIFY_SIG.args not in certify_steps.signatures:
+        with _COMPILE_LOCK, warnings.catch_warnings():
+            warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)  # as integrator()
+            if _CERTIFY_SIG.args not in certify_steps.signatures:
+                certify_steps.compile(_CERTIFY_SIG)
+    certify_steps.disable_compile()
+    return certify_steps
+
+
 @njit(cache=True)  # compiled where it is called (compiled code: the sampled loop)
 def integrate_intervals(
     rhs, p, t, x0, hold, offset, amp, freq, phase, rtol, atol, certify, n_start, n_stop,
@@ -1141,5 +1246,6 @@ def integrate_intervals(
     status = integrate_smooth(
         rhs, None, p.copy(), t, hold, offset, amp, freq, phase, rtol, atol, certify, n_stop,
         sw, sp, info, X, steps, diff, restart, st, V, log, 1 << 62, DEFAULT_MAX_STEPS,
+        np.empty(0),
     )  # fmt: skip
     return status, st[S_DT]

@@ -13,12 +13,17 @@ between them), and turns its stops into errors.
 
 The samples come with a :class:`~sampledyn.Certificate`: every interval is integrated a
 second time, in lockstep, with each accepted step halved, and the difference is the
-per-interval flow-error estimate.
+per-interval flow-error estimate. For a model without jumps on a long run the second
+integration runs in a thread beside the first (:class:`_Certifier`), from the end times
+of its accepted steps: the same operations, the same numbers, on another core.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import queue
+import threading
 import time
 import warnings
 from typing import Any
@@ -48,6 +53,12 @@ _CHUNK = 1 << 15
 # (where Ctrl-C and SIGTERM take effect), and its first step budget.
 _CALL_SECONDS = 0.05
 _FIRST_BUDGET = 256
+# Sampling intervals from which a certified run of a model without jumps certifies in a
+# second thread (:class:`_Certifier`) when this process may use more than one core.
+_THREAD_MIN = 2048
+# Step ends the main run keeps for that thread between two hand-overs (grown if one
+# interval takes more).
+_ENDS = 1 << 14
 
 
 def switching(model: Model) -> tuple[Any, np.ndarray, np.ndarray]:
@@ -204,7 +215,10 @@ def simulate(
     rtol, atol : float
         Tolerances of the error-controlled internal steps.
     certify : bool
-        Attach a :class:`~sampledyn.Certificate` (costs about twice the work).
+        Attach a :class:`~sampledyn.Certificate` (costs about twice the work; for a
+        model without jumps and at least 2048 sampling intervals, on a machine with
+        more than one core, the half steps run in a second thread beside the main
+        run, with the same numbers: about the wall time of the main run alone).
     progress : bool
         Show a progress bar.
     max_steps : int
@@ -398,25 +412,36 @@ class _Integration:
 
     def chunk(
         self, t: np.ndarray, spec: Any, X: np.ndarray, steps: np.ndarray, diff: np.ndarray,
-        restart: np.ndarray,
+        restart: np.ndarray, beside: _Certifier | None = None,
     ) -> None:  # fmt: skip
         """Integrate the intervals of nodes ``t`` (X[0] the start state), pausing
-        every ``_CALL_SECONDS``; raise on a failure."""
+        every ``_CALL_SECONDS``; raise on a failure. With ``beside``, the certifying
+        run is that thread's (this run keeps its step ends and hands it the intervals
+        done after every call); ``diff`` is then scratch."""
         st = self.st
         st[_int.S_N] = 0.0
         st[_int.S_PHASE] = 0.0
+        st[_int.S_NEND] = 0.0
         args = (
             readonly(t), readonly(spec.hold), readonly(spec.offset), readonly(spec.amp),
             readonly(spec.freq_hz), readonly(spec.phase_rad),
         )  # fmt: skip
+        certify = bool(self.certify) and beside is None
+        handed = 0  # intervals of this chunk handed to `beside`
         while True:
             start = time.perf_counter()
+            ends = beside.ends if beside is not None else _NO_ENDS
             status = _int.integrator(self.grad is None)(
                 self.rhs, self.grad, self.q, *args, float(self.rtol), float(self.atol),
-                bool(self.certify), t.shape[0] - 1, self.sw, self.sp, self.info, X, steps,
-                diff, restart, st, self.W, self.log, self.budget, self.max_steps,
+                certify, t.shape[0] - 1, self.sw, self.sp, self.info, X, steps, diff,
+                restart, st, self.W, self.log, self.budget, self.max_steps, ends,
             )  # fmt: skip
-            if status == _int.PAUSED:
+            if beside is not None:
+                handed = beside.hand_over(self, args, X, steps, handed)
+            if status == _int.ENDS_FULL:
+                if beside is not None and st[_int.S_NEND] >= beside.ends.shape[0]:
+                    beside.grow()  # one interval took more steps than it holds
+            elif status == _int.PAUSED:
                 # as many attempts as fit in _CALL_SECONDS at the rate just measured
                 rate = self.budget / max(time.perf_counter() - start, 1e-6)
                 self.budget = int(min(max(rate * _CALL_SECONDS, 16), 1 << 24))
@@ -485,6 +510,92 @@ class _Integration:
         )
 
 
+_NO_ENDS = np.empty(0)
+
+
+class _Certifier:
+    """The certifying run of a model without jumps in a thread beside the main run
+    (:func:`sampledyn._integrator.certify_steps`, the same numbers as the lockstep run):
+    the main run keeps the end time of every accepted step (``ends``) and, after each
+    call, hands over the intervals it has finished; this thread runs their half steps
+    meanwhile (both calls release the GIL), on the core the main run leaves idle.
+    ``diff`` is the per-interval differences the thread writes, rows of the whole run."""
+
+    def __init__(self, run: _Integration, diff: np.ndarray) -> None:
+        self.kernel = _int.certifier()
+        self.rhs, self.q = run.rhs, run.q
+        self.diff = diff
+        self.ends = np.empty(_ENDS)
+        self.offset = 0  # first interval of the current chunk, in the whole run
+        self._work: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._error: BaseException | None = None
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, name="sampledyn-certify", daemon=True)
+        self._thread.start()
+
+    def hand_over(
+        self, run: _Integration, args: tuple, X: np.ndarray, steps: np.ndarray, handed: int
+    ) -> int:
+        """Queue the chunk's intervals finished since ``handed`` (their step ends are
+        the first entries of ``ends``; those of an unfinished interval move to the
+        front); returns the intervals handed over now in all."""
+        st = run.st
+        done = int(st[_int.S_N])
+        if done > handed:
+            n = int(steps[handed:done].sum())
+            kept = int(st[_int.S_NEND])
+            t, hold, offset, amp, freq, phase = args
+            a, b = handed, done
+            self._work.put((
+                t[a : b + 1], hold[a : b + 1], offset, amp, freq, phase, readonly(X[a : b + 1]),
+                _frozen(steps[a:b]), readonly(self.ends[:n].copy()),
+                self.diff[self.offset + a : self.offset + b],
+            ))  # fmt: skip
+            self.ends[: kept - n] = self.ends[n:kept]
+            st[_int.S_NEND] = float(kept - n)
+        return max(done, handed)
+
+    def grow(self) -> None:
+        self.ends = np.concatenate([self.ends, np.empty_like(self.ends)])
+
+    def _run(self) -> None:
+        while True:
+            item = self._work.get()
+            if item is None:
+                return
+            if self._stop or self._error is not None:
+                continue
+            try:
+                self.kernel(self.rhs, self.q, *item)
+            except BaseException as exc:  # pragma: no cover - raised in the caller
+                self._error = exc
+
+    def finish(self) -> None:
+        """Wait for the queued intervals; raise what the thread raised."""
+        self._work.put(None)
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+
+    def abandon(self) -> None:
+        """Stop after the interval in hand (the run failed or was interrupted)."""
+        self._stop = True
+        self._work.put(None)
+        self._thread.join()
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``, its dtype kept."""
+    v = a.view()
+    v.setflags(write=False)
+    return v
+
+
+def _cores() -> int:
+    get = getattr(os, "sched_getaffinity", None)
+    return len(get(0)) if get is not None else (os.cpu_count() or 1)
+
+
 def _switch_names(model: Model, n_sw: int) -> tuple[str, ...]:
     """Names of the switching values, for messages."""
     get = getattr(model, "switching_names", None)
@@ -535,33 +646,49 @@ def _run(
     # breakpoint nodes, a scratch block the kernel writes into.
     diff = np.empty((n_int, nx)) if run.certify else None
     scratch = np.empty((0, nx))
+    beside = None
+    if diff is not None and run.grad is None and sample_node is None and n_int >= _THREAD_MIN:
+        if _cores() > 1:
+            beside = _Certifier(run, diff)
     # the first step proposal: h
     run.st[_int.S_DT] = float(nodes[1 if sample_node is None else sample_node[1]] - nodes[0])
-    for k0 in range(0, n_int, _CHUNK):
-        k1 = min(k0 + _CHUNK, n_int)
-        a, b = (k0, k1) if sample_node is None else (int(sample_node[k0]), int(sample_node[k1]))
-        spec = signal.spec(nodes[a : b + 1])
-        _check_held(signal, nodes[a : b + 1], spec.hold)
-        limits.add(spec, nodes[a : b + 1])
-        if diff is not None and sample_node is None:
-            d_out = diff[k0:k1]
-        else:
-            if scratch.shape[0] < b - a:
-                scratch = np.empty((b - a, nx))
-            d_out = scratch[: b - a]
-        try:
-            run.chunk(nodes[a : b + 1], spec, X[a : b + 1], steps[a:b], d_out, restart[a : b + 1])
-        except KeyboardInterrupt:
-            st = run.st
-            t_at = float(st[_int.S_TC] if st[_int.S_PHASE] else nodes[a + int(st[_int.S_N])])
-            raise KeyboardInterrupt(
-                f"simulate interrupted at t = {t_at:.6g} s of {float(nodes[-1]):g} s"
-            ) from None
-        if diff is not None and sample_node is not None:
-            # the difference over a sampling interval is the one at its last node
-            diff[k0:k1] = d_out[sample_node[k0 + 1 : k1 + 1] - a - 1]
-        if bar is not None:
-            bar.update(k1 - k0)
+    try:
+        for k0 in range(0, n_int, _CHUNK):
+            k1 = min(k0 + _CHUNK, n_int)
+            a, b = (k0, k1) if sample_node is None else (int(sample_node[k0]), int(sample_node[k1]))
+            spec = signal.spec(nodes[a : b + 1])
+            _check_held(signal, nodes[a : b + 1], spec.hold)
+            limits.add(spec, nodes[a : b + 1])
+            if diff is not None and sample_node is None and beside is None:
+                d_out = diff[k0:k1]
+            else:
+                if scratch.shape[0] < b - a:
+                    scratch = np.empty((b - a, nx))
+                d_out = scratch[: b - a]
+            if beside is not None:
+                beside.offset = k0
+            try:
+                run.chunk(
+                    nodes[a : b + 1], spec, X[a : b + 1], steps[a:b], d_out, restart[a : b + 1],
+                    beside,
+                )  # fmt: skip
+            except KeyboardInterrupt:
+                st = run.st
+                t_at = float(st[_int.S_TC] if st[_int.S_PHASE] else nodes[a + int(st[_int.S_N])])
+                raise KeyboardInterrupt(
+                    f"simulate interrupted at t = {t_at:.6g} s of {float(nodes[-1]):g} s"
+                ) from None
+            if diff is not None and sample_node is not None:
+                # the difference over a sampling interval is the one at its last node
+                diff[k0:k1] = d_out[sample_node[k0 + 1 : k1 + 1] - a - 1]
+            if bar is not None:
+                bar.update(k1 - k0)
+    except BaseException:
+        if beside is not None:
+            beside.abandon()
+        raise
+    if beside is not None:
+        beside.finish()
     if sample_node is not None:
         X = X[sample_node]
         steps = np.add.reduceat(steps, sample_node[:-1])

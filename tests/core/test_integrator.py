@@ -1,5 +1,6 @@
-"""The compiled integrator's Dormand-Prince 8(5,3) table is SciPy's, bit for bit, and
-simulating imports neither scipy.integrate nor matplotlib."""
+"""The compiled integrator's Dormand-Prince 8(5,3) table is SciPy's, bit for bit;
+simulating imports neither scipy.integrate nor matplotlib; the certifying run beside
+the main one gives the lockstep numbers; the first run compiles it aside."""
 
 from __future__ import annotations
 
@@ -99,14 +100,98 @@ def test_a_kernel_that_allocates_does_not_change_the_samples():
     assert np.array_equal(a.certificate.per_interval, b.certificate.per_interval)
 
 
+def _kinked_model():
+    from sampledyn.models import FunctionModel
+
+    def rhs(t, x, u, p, out):
+        out[0] = x[1]
+        out[1] = -x[0] - 0.1 * x[1] * abs(x[1]) + u[0]
+
+    return FunctionModel(rhs, 2, 1, x0=[1.0, 0.0])
+
+
+def test_the_certificate_from_another_thread_is_the_lockstep_one(monkeypatch):
+    """A certified run certified by a second thread from the main run's step ends
+    (issue 23: the half steps on the core the main run leaves idle) has the samples,
+    steps and certificate of the lockstep run to the bit, through chunks, pauses
+    inside an interval and a step-end array that fills and grows."""
+    import sampledyn as sd
+    from sampledyn import _simulate
+
+    made = []
+
+    class Counted(_simulate._Certifier):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            self.calls = {"hand_over": 0, "grow": 0}
+            made.append(self)
+
+        def hand_over(self, *a, **k):
+            self.calls["hand_over"] += 1
+            return super().hand_over(*a, **k)
+
+        def grow(self):
+            self.calls["grow"] += 1
+            super().grow()
+
+    monkeypatch.setattr(_simulate, "_Certifier", Counted)
+    monkeypatch.setattr(_simulate, "_cores", lambda: 2)
+    monkeypatch.setattr(_simulate, "_CHUNK", 64)  # several chunks
+    monkeypatch.setattr(_simulate, "_FIRST_BUDGET", 16)  # pauses
+    monkeypatch.setattr(_simulate, "_CALL_SECONDS", 1e-5)  # ... inside intervals too
+    monkeypatch.setattr(_simulate, "_ENDS", 1)  # an interval of 2 steps fills it
+    signal = sd.signals.Multilevel(low=-1.0, high=1.0, hold=0.5, seed=0)
+    runs = {}
+    for name, least in (("lockstep", 1 << 60), ("beside", 0)):
+        monkeypatch.setattr(_simulate, "_THREAD_MIN", least)
+        runs[name] = sd.simulate(_kinked_model(), signal, T=30.0, h=0.1)
+    (used,) = made
+    assert used.calls["grow"] >= 1 and used.calls["hand_over"] > 300 // 64
+    a, b = runs["lockstep"], runs["beside"]
+    assert a.certificate.steps.max() >= 2
+    assert np.array_equal(a.x, b.x)
+    assert np.array_equal(a.certificate.steps, b.certificate.steps)
+    assert np.array_equal(a.certificate.per_interval, b.certificate.per_interval)
+    assert a.certificate.max_error == b.certificate.max_error
+
+
+def test_an_interrupted_run_leaves_no_certifying_thread(monkeypatch):
+    """Ctrl-C between two chunks of a run certified by a second thread stops that
+    thread too (it is joined before the interrupt goes on)."""
+    import threading
+
+    import sampledyn as sd
+    from sampledyn import _simulate
+
+    monkeypatch.setattr(_simulate, "_cores", lambda: 2)
+    monkeypatch.setattr(_simulate, "_THREAD_MIN", 0)
+    monkeypatch.setattr(_simulate, "_CHUNK", 64)
+    calls = []
+    real = _simulate._check_held
+
+    def interrupted(*a, **k):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(_simulate, "_check_held", interrupted)
+    signal = sd.signals.Multilevel(low=-1.0, high=1.0, hold=0.5, seed=0)
+    with pytest.raises(KeyboardInterrupt):
+        sd.simulate(_kinked_model(), signal, T=30.0, h=0.1)
+    assert len(calls) == 3
+    assert not [t for t in threading.enumerate() if t.name == "sampledyn-certify"]
+
+
 @pytest.mark.slow
 def test_a_first_run_compiles_the_integrator_aside_and_loads_it_from_the_cache(
     tmp_path, monkeypatch
 ):
     """Empty numba cache (issue 23, a first run): compile_aside forks a process that
     compiles the integrator into the cache; integrator() waits for it (a numba compile
-    event, so the compile notice is said) and loads what it saved instead of compiling
-    it a second time. Once compiled, compile_aside starts nothing."""
+    event, so the compile notice is said), compiling the certifying thread's kernel
+    meanwhile, and loads what the child saved instead of compiling it a second time.
+    Once compiled, compile_aside starts nothing."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
     found = run_python(
         """
@@ -130,17 +215,23 @@ def test_a_first_run_compiles_the_integrator_aside_and_loads_it_from_the_cache(
         disp = I.integrator(True)
         after = I.compiling_aside()
         I.compile_aside(True)
+        beside = I.certify_steps
         print(json.dumps({
             "aside": aside, "exit": child.exitcode, "after": after,
             "again": I.compiling_aside(), "hits": sum(disp.stats.cache_hits.values()),
             "misses": sum(disp.stats.cache_misses.values()), "events": seen,
+            "beside": [sum(beside.stats.cache_hits.values()),
+                       sum(beside.stats.cache_misses.values())],
         }))
         """
     )
     assert found["aside"] and found["exit"] == 0
     assert found["hits"] == 1 and found["misses"] == 0  # loaded, not compiled here
+
     assert not found["after"] and not found["again"]
-    assert found["events"] == ["_integrate"]  # the wait, as one compile of it
+    assert found["events"].count("_integrate") == 1  # the wait, as one compile of it
+    assert found["events"][-1] == "_integrate"
+    assert found["beside"] == [0, 1]  # compiled here meanwhile (an empty cache)
 
 
 def test_the_disk_cache_check_sees_what_numba_saved(tmp_path, monkeypatch):
